@@ -1,0 +1,260 @@
+"""Air-bearing models behind one interface, chosen by name (``models.air_bearing``).
+
+``reynolds``: the time-dependent compressible Reynolds equation with slip
+solved on-line on both rails (finite volumes, :mod:`solver.kernels.reynolds`).
+
+Time step (implicit midpoint in the conserved variable P H, second order):
+
+    sigma/dt A (P' H' - P H) + R((P + P')/2; (H + H')/2) = 0,
+
+solved by Newton iterations whose matrix sigma/dt A H' + J/2 is replaced by
+its approximate factorisation (line solves along x, then along y: cost
+linear in the number of nodes).  The factorisation error is
+(J_x/2)(sigma/dt A H')^-1 (J_y/2) delta; at the source's 0.1 us step it is
+~1e-4 of the squeeze term because the film is squeeze-dominated
+(p h^2 dt / (12 eta dy^2) ~ 1e-3 across a rail), so one iteration (a
+linearly-implicit step, still second order) is the default.
+
+Steady state: Newton with the exact Jacobian and a sparse direct solve,
+globalised by pseudo-transient continuation (switched evolution relaxation).
+
+Generalized forces of the film on (z, pitch, roll), from virtual work with
+h = z - x1 th1 - x2 th2:   (Q, -S1 Q, -S2 Q) = int (p - p0) (1, -x1, -x2) dA.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .geometry import rail_centres
+from .grid import RailGrid, control_volume_widths, rail_grid
+from .kernels import reynolds as kr
+from .params import Scene
+
+log = logging.getLogger(__name__)
+
+#: Slip laws: coefficients (c1, c2) of D = H^3 P + c1 Kn H^2 + c2 Kn^2 H / P.
+SLIP_LAWS: dict[str, tuple[float, float]] = {
+    "continuum": (0.0, 0.0),
+    "first_order": (6.0, 0.0),
+    "second_order": (6.0, 6.0),
+}
+
+
+class SteadyFilmError(RuntimeError):
+    """The steady Reynolds solve did not converge."""
+
+
+@dataclass
+class FilmWork:
+    """Work counters of the film solver."""
+
+    reynolds_solves: int = 0
+    newton_iterations: int = 0
+    sparse_solves: int = 0
+
+
+@dataclass
+class ReynoldsFilm:
+    """On-line Reynolds film on the two rails of a taper-flat slider.
+
+    Holds the grid, the scalings and the work arrays; the algorithms are the
+    kernels' plain functions.  Arrays are (nr=2, nx, ny), rail 0 at x2 < 0.
+    """
+
+    scene: Scene
+    grid: RailGrid = field(init=False)
+    h_ref: float = 1.0e-7
+    work: FilmWork = field(default_factory=FilmWork)
+
+    def __post_init__(self) -> None:
+        s, n = self.scene.slider, self.scene.numerics
+        self.grid = rail_grid(
+            s.taper_length, s.flat_front, s.flat_rear, s.rail_width, n.nx, n.nx_taper, n.ny, n.cluster_x, n.cluster_y
+        )
+        air, disk = self.scene.air, self.scene.disk
+        self.length = s.length
+        L, href, p0 = self.length, self.h_ref, air.ambient_pressure
+        self.lam = 6.0 * air.viscosity * disk.speed * L / (p0 * href**2)
+        self.sigma = 12.0 * air.viscosity * L**2 / (p0 * href**2)
+        self.kn = air.mean_free_path / href
+        self.c1, self.c2 = SLIP_LAWS[self.scene.models.slip]
+        x, y = self.grid.x, self.grid.y
+        nx, ny = x.size, y.size
+        centres = rail_centres(s)
+        self.x = x
+        self.y_abs = centres[:, None] + y[None, :]
+        self.xf = 0.5 * (x[1:] + x[:-1])
+        self.yf_abs = 0.5 * (self.y_abs[:, 1:] + self.y_abs[:, :-1])
+        self.dx = np.diff(x) / L
+        self.dy = np.diff(y) / L
+        self.dxc = control_volume_widths(x) / L
+        self.dyc = control_volume_widths(y) / L
+        self.area = np.outer(self.dxc, self.dyc)
+        nr = 2
+
+        def recess(xs: np.ndarray, ncols: int) -> np.ndarray:
+            depth = np.minimum(xs + s.flat_front, 0.0) * s.taper_angle
+            return np.broadcast_to(-depth[None, :, None], (nr, xs.size, ncols)).copy()
+
+        self.recess = recess(x, ny)
+        self.recess_xf = recess(self.xf, ny)
+        self.recess_yf = recess(x, ny - 1)
+        shape = (nr, nx, ny)
+        self.H = np.empty(shape)
+        self.Hx = np.empty((nr, nx - 1, ny))
+        self.Hy = np.empty((nr, nx, ny - 1))
+        self.H_old = np.empty(shape)
+        self.H_mid = np.empty(shape)
+        self.Hx_mid = np.empty((nr, nx - 1, ny))
+        self.Hy_mid = np.empty((nr, nx, ny - 1))
+        self._R = np.empty(shape)
+        self._J = tuple(np.empty(shape) for _ in range(6))
+        self._diag = np.empty(shape)
+        self._rhs = np.empty(shape)
+        self._delta = np.empty(shape)
+        self._work = np.empty(shape)
+        self._P_mid = np.empty(shape)
+        self._P_old = np.empty(shape)
+        self.P = np.ones(shape)
+
+    # ------------------------------------------------------------------ geometry
+    def fill_spacing(self, q: np.ndarray, H: np.ndarray, Hx: np.ndarray, Hy: np.ndarray) -> None:
+        """Scaled spacing at nodes and faces for q = (z, pitch, roll)."""
+        kr.fill_spacing(
+            float(q[0]), float(q[1]), float(q[2]), self.x, self.y_abs, self.xf, self.yf_abs,
+            self.recess, self.recess_xf, self.recess_yf, 1.0 / self.h_ref, H, Hx, Hy,
+        )  # fmt: skip
+
+    def spacing(self, q: np.ndarray) -> np.ndarray:
+        """Spacing h [m] at the nodes, (2, nx, ny)."""
+        H = np.empty_like(self.H)
+        self.fill_spacing(q, H, np.empty_like(self.Hx), np.empty_like(self.Hy))
+        return H * self.h_ref
+
+    # ------------------------------------------------------------------ loads
+    def generalized_forces(self, P: np.ndarray | None = None) -> np.ndarray:
+        """(Q, -S1 Q, -S2 Q) of the film on (z, pitch, roll) [N, N m, N m]."""
+        P = self.P if P is None else P
+        q, qx, qy = kr.load_moments(P, self.area, self.x / self.length, self.y_abs / self.length)
+        scale = self.scene.air.ambient_pressure * self.length**2
+        return np.array([q * scale, -qx * scale * self.length, -qy * scale * self.length])
+
+    # ------------------------------------------------------------------ steady
+    def solve_steady(self, q: np.ndarray, P0: np.ndarray | None = None) -> np.ndarray:
+        """Steady pressure (2, nx, ny) [p0 units] at attitude q; stored in ``self.P``."""
+        self.fill_spacing(q, self.H, self.Hx, self.Hy)
+        if np.any(self.H <= 0.0):
+            raise SteadyFilmError(f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0")
+        try:
+            P, its = steady_newton(
+                self.H, self.Hx, self.Hy, self.dx, self.dy, self.dxc, self.dyc, self.lam, self.kn,
+                self.c1, self.c2, self.scene.numerics.steady_tol, P0=P0,
+            )  # fmt: skip
+        except SteadyFilmError as err:
+            raise SteadyFilmError(f"{err} at attitude {np.asarray(q).tolist()}") from None
+        self.work.reynolds_solves += 1
+        self.work.newton_iterations += its
+        self.work.sparse_solves += its
+        self.P = P
+        return P
+
+    # ------------------------------------------------------------------ dynamics
+    def step(self, q_old: np.ndarray, q_new: np.ndarray, dt: float) -> int:
+        """Advance ``self.P`` over dt while the attitude moves linearly from q_old to q_new.
+
+        Returns the number of Newton iterations taken.
+        """
+        n = self.scene.numerics
+        Jcx, Jxm, Jxp, Jcy, Jym, Jyp = self._J
+        its = kr.film_step(
+            self.P, np.asarray(q_old, dtype=float), np.asarray(q_new, dtype=float),
+            self.x, self.y_abs, self.xf, self.yf_abs, self.recess, self.recess_xf, self.recess_yf,
+            1.0 / self.h_ref, self.dx, self.dy, self.dxc, self.dyc, self.area,
+            self.lam, self.kn, self.c1, self.c2, self.sigma / dt, n.newton_max_iter, n.newton_tol,
+            self._P_old, self._P_mid, self.H_old, self.H, self.H_mid, self.Hx_mid, self.Hy_mid,
+            self.Hx, self.Hy, self._R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp,
+            self._diag, self._rhs, self._delta, self._work,
+        )  # fmt: skip
+        self.work.reynolds_solves += 1
+        self.work.newton_iterations += its
+        return its
+
+
+def steady_newton(
+    H: np.ndarray,
+    Hx: np.ndarray,
+    Hy: np.ndarray,
+    dx: np.ndarray,
+    dy: np.ndarray,
+    dxc: np.ndarray,
+    dyc: np.ndarray,
+    lam: float,
+    kn: float,
+    c1: float,
+    c2: float,
+    tol: float,
+    *,
+    P0: np.ndarray | None = None,
+    y_flux: bool = True,
+    max_iter: int = 200,
+) -> tuple[np.ndarray, int]:
+    """Solve the steady scaled Reynolds equation R(P; H) = 0 with P = 1 on the edges.
+
+    Newton's method with the exact Jacobian and a sparse direct solve,
+    globalised by pseudo-transient continuation: each step solves
+    (A H / tau + J) delta = -R, with the pseudo time step tau growing as
+    the residual falls (switched evolution relaxation) until it is a pure
+    Newton step.  Converged when tau > 1e6 and max |delta| < tol.
+
+    Returns the pressure (nr, nx, ny) [p0] and the number of iterations.
+    """
+    shape = H.shape
+    nr, nx, ny = shape
+    R = np.empty(shape)
+    Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (np.empty(shape) for _ in range(6))
+    interior = np.zeros(shape, dtype=bool)
+    interior[:, 1:-1, 1:-1] = True
+    flat_interior = interior.ravel()
+    area_h = (np.outer(dxc, dyc)[None, :, :] * H)[interior]
+    P = np.ones(shape) if P0 is None else np.array(P0, dtype=float)
+    tau = 1.0e-3 if P0 is None else 1.0e2
+    res_prev = None
+    step = np.inf
+    for it in range(1, max_iter + 1):
+        kr.assemble(P, H, Hx, Hy, dx, dy, dxc, dyc, lam, kn, c1, c2, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, y_flux)
+        res = float(np.abs(R[interior]).max())
+        if res_prev is not None:
+            tau = min(tau * min(1.0e3, max(2.0, res_prev / max(res, 1e-300))), 1.0e30)
+        res_prev = res
+        main = np.ones(P.size)
+        main[flat_interior] = (Jcx + Jcy)[interior] + area_h / tau
+        mat = sp.diags(
+            [main, Jym.ravel()[1:], Jyp.ravel()[:-1], Jxm.ravel()[ny:], Jxp.ravel()[:-ny]],
+            [0, -1, 1, -ny, ny],
+            format="csc",
+        )
+        rhs = np.where(interior, -R, 0.0).ravel()
+        delta = spla.spsolve(mat, rhs).reshape(shape)
+        # keep the pressure positive: never let a node lose more than 90 %
+        ratio = np.min(np.where(delta < 0.0, -0.9 * P / np.where(delta < 0.0, delta, -1.0), np.inf))
+        P += min(1.0, ratio) * delta
+        step = float(np.abs(delta).max())
+        if step < tol and tau > 1.0e6:
+            return P, it
+    raise SteadyFilmError(
+        f"steady Reynolds solve did not converge in {max_iter} iterations (last pressure change {step:.3g} p0)"
+    )
+
+
+AIR_BEARINGS = {"reynolds": ReynoldsFilm}
+
+
+def make_air_bearing(scene: Scene) -> ReynoldsFilm:
+    """The air-bearing model named by ``scene.models.air_bearing``."""
+    return AIR_BEARINGS[scene.models.air_bearing](scene)

@@ -1,0 +1,1 @@
+"""Numba kernels: plain functions over ndarrays, floats, ints and bools only."""

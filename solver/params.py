@@ -1,0 +1,398 @@
+"""Parameters: frozen dataclasses in SI units, each field documented once.
+
+Every field carries metadata (``units``, ``long_name``, ``symbol`` and the
+allowed range).  The same metadata produces the validation messages and the
+``units``/``long_name`` attributes of every stored variable, so a unit is
+written in exactly one place.
+
+Sign conventions (scene 1, Benson, Chiang & Talke 1989)
+--------------------------------------------------------
+x1 runs along the slider in the direction of disk motion (leading edge at
+negative x1), x2 across it, origin under the gimbal.  ``z`` is the gimbal's
+height above the asperity base plane, ``pitch`` (th1) is positive when the
+leading edge is up and ``roll`` (th2) is positive when the x2 < 0 side is up:
+
+    h(x1, x2) = z - x1*th1 - x2*th2            (flat)
+    h(x1, x2) = z - x1*th1 - x2*th2 - (x1 + c)*theta0   (taper, x1 < -c)
+
+Suspension moments are generalized forces in these coordinates:
+pitch moment = static_pitch_moment - pitch_stiffness*th1 (positive lifts the
+leading edge), roll moment = static_roll_moment - roll_stiffness*th2.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class ParameterError(ValueError):
+    """A parameter value, key or type that is not allowed."""
+
+
+def quantity(
+    default: Any,
+    units: str,
+    long_name: str,
+    *,
+    symbol: str = "",
+    lo: float | None = None,
+    hi: float | None = None,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    choices: tuple[str, ...] | None = None,
+) -> Any:
+    """A dataclass field with physical metadata and an allowed range."""
+    return field(
+        default=default,
+        metadata={
+            "units": units,
+            "long_name": long_name,
+            "symbol": symbol,
+            "lo": lo,
+            "hi": hi,
+            "lo_open": lo_open,
+            "hi_open": hi_open,
+            "choices": choices,
+        },
+    )
+
+
+def _allowed_text(meta: dict[str, Any]) -> str:
+    if meta["choices"] is not None:
+        return "one of " + ", ".join(repr(c) for c in meta["choices"])
+    lo, hi = meta["lo"], meta["hi"]
+    parts = []
+    if lo is not None:
+        parts.append(f"{'>' if meta['lo_open'] else '>='} {lo:g}")
+    if hi is not None:
+        parts.append(f"{'<' if meta['hi_open'] else '<='} {hi:g}")
+    text = " and ".join(parts) if parts else "any value"
+    if lo is not None and hi is not None and not meta["lo_open"] and not meta["hi_open"]:
+        text = f"in [{lo:g}, {hi:g}]"
+    return text
+
+
+def _check_field(section: str, f: dataclasses.Field, value: Any) -> None:
+    meta = f.metadata
+    key = f"{section}.{f.name}"
+    units = f" [{meta['units']}]" if meta.get("units") not in (None, "", "1") else ""
+    what = f"({meta['long_name']})"
+    expected = type(f.default)
+    if expected is bool:
+        if not isinstance(value, bool):
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected true or false {what}")
+        return
+    if expected is str:
+        if not isinstance(value, str):
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected a string {what}")
+        if meta["choices"] is not None and value not in meta["choices"]:
+            raise ParameterError(f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)} {what}")
+        return
+    if expected is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected an integer {what}")
+    elif expected is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected a number{units} {what}")
+        if not math.isfinite(value):
+            raise ParameterError(f"{key} = {value!r} is not allowed: must be finite {what}")
+    lo, hi = meta["lo"], meta["hi"]
+    bad = False
+    if lo is not None and (value < lo or (meta["lo_open"] and value == lo)):
+        bad = True
+    if hi is not None and (value > hi or (meta["hi_open"] and value == hi)):
+        bad = True
+    if bad:
+        raise ParameterError(f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)}{units} {what}")
+
+
+class Section:
+    """Mixin: validation and plain-dict conversion for a parameter section."""
+
+    section: str = ""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if type(f.default) is float and isinstance(value, int) and not isinstance(value, bool):
+                object.__setattr__(self, f.name, float(value))
+                value = float(value)
+            _check_field(self.section, f, value)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+@dataclass(frozen=True)
+class Slider(Section):
+    """Two-rail taper-flat slider (source Table 1)."""
+
+    section = "slider"
+    width: float = quantity(3.2e-3, "m", "slider width", symbol="w", lo=0.0, lo_open=True)
+    rail_width: float = quantity(0.686e-3, "m", "rail width", symbol="b", lo=0.0, lo_open=True)
+    flat_front: float = quantity(
+        1.788e-3, "m", "gimbal to taper/flat juncture", symbol="c", lo=0.0, lo_open=True
+    )
+    flat_rear: float = quantity(1.0e-3 * 0.382, "m", "gimbal to trailing edge", symbol="d", lo=0.0, lo_open=True)
+    taper_length: float = quantity(
+        0.5e-3, "m", "taper length along the slider (not in the source)", symbol="c0", lo=0.0, lo_open=True
+    )
+    taper_angle: float = quantity(0.0145, "rad", "taper angle", symbol="theta0", lo=0.0, hi=0.2, lo_open=True)
+    mass: float = quantity(0.071e-3, "kg", "slider mass", symbol="m", lo=0.0, lo_open=True)
+    pitch_inertia: float = quantity(
+        0.143e-9, "kg m2", "pitch inertia about the gimbal", symbol="I1", lo=0.0, lo_open=True
+    )
+    roll_inertia: float = quantity(0.074e-9, "kg m2", "roll inertia", symbol="I2", lo=0.0, lo_open=True)
+    cg_offset: float = quantity(
+        0.028e-3, "m", "mass centre ahead of the gimbal (mass centre at x1 = -a)", symbol="a"
+    )
+    friction_lever: float = quantity(
+        1.0e-3, "m", "gimbal height above the disk surface (friction lever arm)", symbol="e", lo=0.0
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.rail_width > self.width / 2:
+            raise ParameterError(
+                f"slider.rail_width = {self.rail_width!r} is not allowed: must be <= slider.width/2 "
+                f"= {self.width / 2:g} [m] (two rails at the outer edges)"
+            )
+        det = self.mass * self.pitch_inertia - (self.mass * self.cg_offset) ** 2
+        if det <= 0:
+            raise ParameterError(
+                f"slider.pitch_inertia = {self.pitch_inertia!r} is not allowed: must exceed "
+                f"mass*cg_offset^2 = {self.mass * self.cg_offset**2:g} [kg m2] "
+                "(inertia about the gimbal includes the mass-centre offset)"
+            )
+
+    @property
+    def length(self) -> float:
+        """Rail length c0 + c + d [m]."""
+        return self.taper_length + self.flat_front + self.flat_rear
+
+
+@dataclass(frozen=True)
+class Suspension(Section):
+    """Preload and gimbal moments (the source gives no gimbal stiffness)."""
+
+    section = "suspension"
+    preload: float = quantity(0.0932, "N", "preload through the gimbal", symbol="F", lo=0.0)
+    pitch_stiffness: float = quantity(0.0, "N m rad-1", "gimbal pitch stiffness", symbol="k1", lo=0.0)
+    roll_stiffness: float = quantity(0.0, "N m rad-1", "gimbal roll stiffness", symbol="k2", lo=0.0)
+    static_pitch_moment: float = quantity(
+        0.0, "N m", "static suspension pitch moment (positive lifts the leading edge)", symbol="M1"
+    )
+    static_roll_moment: float = quantity(0.0, "N m", "static suspension roll moment", symbol="M2")
+
+
+@dataclass(frozen=True)
+class Air(Section):
+    section = "air"
+    ambient_pressure: float = quantity(101.0e3, "Pa", "ambient pressure", symbol="p0", lo=0.0, lo_open=True)
+    viscosity: float = quantity(18.1e-6, "Pa s", "air viscosity", symbol="eta", lo=0.0, lo_open=True)
+    mean_free_path: float = quantity(0.06e-6, "m", "mean free path of air at p0", symbol="lambda", lo=0.0)
+
+
+@dataclass(frozen=True)
+class Disk(Section):
+    section = "disk"
+    speed: float = quantity(2.0, "m s-1", "disk speed under the slider", symbol="V", lo=0.0)
+    asperity_height: float = quantity(
+        0.050e-6, "m", "asperity height above the base plane", symbol="h0", lo=0.0
+    )
+
+
+@dataclass(frozen=True)
+class Contact(Section):
+    section = "contact"
+    mu: float = quantity(0.5, "1", "Coulomb friction coefficient", symbol="mu", lo=0.0)
+    alpha: float = quantity(0.8, "1", "coefficient of restitution", symbol="alpha", lo=0.0, hi=1.0)
+    wedging: bool = quantity(True, "1", "include the wedging term eps*V in the approach velocity")
+    max_impacts: int = quantity(2000, "1", "stop a run after this many impacts", lo=1)
+
+
+@dataclass(frozen=True)
+class Initial(Section):
+    """Disturbance from steady flight, as initial velocities."""
+
+    section = "initial"
+    zdot: float = quantity(-0.01, "m s-1", "initial vertical velocity of the gimbal", symbol="zdot0")
+    pitch_rate: float = quantity(5.0, "rad s-1", "initial pitch rate", symbol="th1dot0")
+    roll_rate: float = quantity(10.0, "rad s-1", "initial roll rate", symbol="th2dot0")
+
+
+CALIBRATION_MODES = ("source_attitude", "none")
+
+
+@dataclass(frozen=True)
+class Calibration(Section):
+    """How the steady state is set.
+
+    ``none``: the printed preload and suspension moments; the attitude is
+    whatever balances them.  ``source_attitude``: the slider flies at the
+    given attitude and the suspension is set to match the film there: the
+    preload becomes the film's load and the static pitch/roll moments
+    cancel the film's moments about the gimbal (the source's steady state
+    cannot be reached with its printed load; see the README).
+    """
+
+    section = "calibration"
+    mode: str = quantity("source_attitude", "", "steady-state calibration", choices=CALIBRATION_MODES)
+    z: float = quantity(0.115e-6, "m", "target gimbal height (source_attitude mode)", lo=0.0, lo_open=True)
+    pitch: float = quantity(13.5e-6, "rad", "target pitch (source_attitude mode)")
+    roll: float = quantity(0.0, "rad", "target roll (source_attitude mode)")
+
+
+AIR_BEARING_MODELS = ("reynolds",)
+SLIP_MODELS = ("first_order", "continuum", "second_order")
+CONTACT_MODELS = ("restitution",)
+
+
+@dataclass(frozen=True)
+class Models(Section):
+    """Physical ingredients chosen by name from the registries."""
+
+    section = "models"
+    air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=AIR_BEARING_MODELS)
+    slip: str = quantity("first_order", "", "slip law", choices=SLIP_MODELS)
+    contact: str = quantity("restitution", "", "contact law", choices=CONTACT_MODELS)
+
+
+@dataclass(frozen=True)
+class Numerics(Section):
+    section = "numerics"
+    nx: int = quantity(201, "1", "grid nodes along each rail (taper + flat)", lo=16)
+    nx_taper: int = quantity(31, "1", "grid nodes on the taper, juncture included", lo=5)
+    ny: int = quantity(21, "1", "grid nodes across each rail", lo=5)
+    cluster_x: float = quantity(
+        2.0, "1", "clustering strength along the rail at the juncture and trailing edge (0 = uniform)", lo=0.0, hi=8.0
+    )
+    cluster_y: float = quantity(
+        0.0, "1", "clustering strength across the rail towards its edges (0 = uniform)", lo=0.0, hi=8.0
+    )
+    dt: float = quantity(1.0e-7, "s", "time step", lo=0.0, lo_open=True)
+    t_end: float = quantity(300.0e-6, "s", "duration of a run", lo=0.0, lo_open=True)
+    output_interval: float = quantity(0.2e-6, "s", "sampling interval of stored time series", lo=0.0)
+    newton_max_iter: int = quantity(1, "1", "Newton iterations per time step (1 = linearly implicit)", lo=1)
+    newton_tol: float = quantity(1.0e-10, "1", "Newton tolerance on the scaled film residual", lo=0.0, lo_open=True)
+    steady_tol: float = quantity(
+        1.0e-10, "1", "steady solve tolerance (scaled residual and force balance)", lo=0.0, lo_open=True
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.nx - self.nx_taper + 1 < 11:
+            raise ParameterError(
+                f"numerics.nx_taper = {self.nx_taper} is not allowed with numerics.nx = {self.nx}: "
+                "the flat needs at least 11 nodes (nx - nx_taper + 1 >= 11)"
+            )
+
+
+SECTIONS: dict[str, type[Section]] = {
+    "slider": Slider,
+    "suspension": Suspension,
+    "air": Air,
+    "disk": Disk,
+    "contact": Contact,
+    "initial": Initial,
+    "models": Models,
+    "numerics": Numerics,
+    "calibration": Calibration,
+}
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A complete scene: every parameter of one simulation."""
+
+    name: str = "benson1989"
+    description: str = ""
+    slider: Slider = field(default_factory=Slider)
+    suspension: Suspension = field(default_factory=Suspension)
+    air: Air = field(default_factory=Air)
+    disk: Disk = field(default_factory=Disk)
+    contact: Contact = field(default_factory=Contact)
+    initial: Initial = field(default_factory=Initial)
+    models: Models = field(default_factory=Models)
+    numerics: Numerics = field(default_factory=Numerics)
+    calibration: Calibration = field(default_factory=Calibration)
+
+    def __post_init__(self) -> None:
+        taper_dx = self.slider.taper_length / (self.numerics.nx_taper - 1)
+        # The taper must be resolved: its rise over one interval must stay a
+        # small fraction of the taper rise, and it needs >= 4 intervals.
+        rise = self.slider.taper_length * self.slider.taper_angle
+        if self.numerics.nx_taper < 5:
+            raise ParameterError(
+                f"numerics.nx_taper = {self.numerics.nx_taper} is too coarse to resolve the taper: "
+                "must be >= 5 nodes (4 intervals)"
+            )
+        if taper_dx > 0.25 * self.slider.length:
+            raise ParameterError(
+                f"numerics.nx_taper = {self.numerics.nx_taper} is too coarse to resolve the taper "
+                f"(interval {taper_dx:.3g} m, rise {rise:.3g} m): the taper interval must be "
+                "<= a quarter of the rail length"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "description": self.description}
+        for name in SECTIONS:
+            out[name] = getattr(self, name).to_dict()
+        return out
+
+    def flat(self) -> dict[str, Any]:
+        """Dotted-key view: {'contact.mu': 0.5, ...}."""
+        out: dict[str, Any] = {}
+        for name in SECTIONS:
+            for key, value in getattr(self, name).to_dict().items():
+                out[f"{name}.{key}"] = value
+        return out
+
+
+def field_metadata(dotted_key: str) -> dict[str, Any]:
+    """units / long_name / symbol of a dotted scene key such as 'contact.mu'."""
+    section, _, name = dotted_key.partition(".")
+    if section not in SECTIONS:
+        raise ParameterError(f"unknown section {section!r} in key {dotted_key!r}: allowed {', '.join(SECTIONS)}")
+    for f in dataclasses.fields(SECTIONS[section]):
+        if f.name == name:
+            return dict(f.metadata)
+    allowed = ", ".join(f.name for f in dataclasses.fields(SECTIONS[section]))
+    raise ParameterError(f"unknown key {dotted_key!r}: section [{section}] has {allowed}")
+
+
+def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Scene:
+    """Build a validated Scene from nested dicts; unknown keys are errors naming ``source``."""
+    known_top = {"name", "description", *SECTIONS}
+    for key in data:
+        if key not in known_top:
+            raise ParameterError(
+                f"unknown key {key!r} in {source}: allowed top-level keys are {', '.join(sorted(known_top))}"
+            )
+    kwargs: dict[str, Any] = {}
+    for key in ("name", "description"):
+        if key in data:
+            if not isinstance(data[key], str):
+                raise ParameterError(f"{key} = {data[key]!r} in {source} has the wrong type: expected a string")
+            kwargs[key] = data[key]
+    for name, cls in SECTIONS.items():
+        values = data.get(name, {})
+        if not isinstance(values, dict):
+            raise ParameterError(f"[{name}] in {source} must be a table, got {values!r}")
+        names = {f.name for f in dataclasses.fields(cls)}
+        for key in values:
+            if key not in names:
+                raise ParameterError(
+                    f"unknown key '{name}.{key}' in {source}: section [{name}] has {', '.join(sorted(names))}"
+                )
+        try:
+            kwargs[name] = cls(**values)
+        except ParameterError as err:
+            raise ParameterError(f"{err} (in {source})") from None
+    try:
+        return Scene(**kwargs)
+    except ParameterError as err:
+        raise ParameterError(f"{err} (in {source})") from None
