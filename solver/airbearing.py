@@ -75,7 +75,15 @@ class ReynoldsFilm:
     def __post_init__(self) -> None:
         s, n = self.scene.slider, self.scene.numerics
         self.grid = rail_grid(
-            s.taper_length, s.flat_front, s.flat_rear, s.rail_width, n.nx, n.nx_taper, n.ny, n.cluster_x, n.cluster_y
+            s.taper_length,
+            s.flat_front,
+            s.flat_rear,
+            s.rail_width,
+            n.nx,
+            n.nx_taper,
+            n.ny,
+            n.cluster_x,
+            n.cluster_y,
         )
         air, disk = self.scene.air, self.scene.disk
         self.length = s.length
@@ -113,8 +121,8 @@ class ReynoldsFilm:
         self.H_mid = np.empty(shape)
         self.Hx_mid = np.empty((nr, nx - 1, ny))
         self.Hy_mid = np.empty((nr, nx, ny - 1))
-        self._R = np.empty(shape)
-        self._J = tuple(np.empty(shape) for _ in range(6))
+        self._R = np.zeros(shape)
+        self._J = tuple(np.zeros(shape) for _ in range(6))
         self._diag = np.empty(shape)
         self._rhs = np.empty(shape)
         self._delta = np.empty(shape)
@@ -122,6 +130,22 @@ class ReynoldsFilm:
         self._P_mid = np.empty(shape)
         self._P_old = np.empty(shape)
         self.P = np.ones(shape)
+
+    def kernel_args(self) -> tuple:
+        """Film arguments of :func:`solver.kernels.motion.verlet_step`, after ``P``."""
+        n = self.scene.numerics
+        return (
+            self.x, self.y_abs, self.xf, self.yf_abs, self.recess, self.recess_xf, self.recess_yf,
+            1.0 / self.h_ref, self.dx, self.dy, self.dxc, self.dyc, self.area,
+            self.lam, self.kn, self.c1, self.c2, self.sigma, n.newton_max_iter, n.newton_tol,
+            self._P_old, self._P_mid, self.H_old, self.H, self.H_mid, self.Hx_mid, self.Hy_mid,
+            self._R, *self._J, self._diag, self._rhs, self._delta, self._work,
+        )  # fmt: skip
+
+    def force_args(self) -> tuple:
+        """(force_scale, moment_scale, x_scaled, y_scaled) of the generalized-force kernel."""
+        p0, L = self.scene.air.ambient_pressure, self.length
+        return (p0 * L**2, p0 * L**3, self.x / L, self.y_abs / L)
 
     # ------------------------------------------------------------------ geometry
     def fill_spacing(self, q: np.ndarray, H: np.ndarray, Hx: np.ndarray, Hy: np.ndarray) -> None:
@@ -150,7 +174,9 @@ class ReynoldsFilm:
         """Steady pressure (2, nx, ny) [p0 units] at attitude q; stored in ``self.P``."""
         self.fill_spacing(q, self.H, self.Hx, self.Hy)
         if np.any(self.H <= 0.0):
-            raise SteadyFilmError(f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0")
+            raise SteadyFilmError(
+                f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0"
+            )
         try:
             P, its = steady_newton(
                 self.H, self.Hx, self.Hy, self.dx, self.dy, self.dxc, self.dyc, self.lam, self.kn,
@@ -178,7 +204,7 @@ class ReynoldsFilm:
             1.0 / self.h_ref, self.dx, self.dy, self.dxc, self.dyc, self.area,
             self.lam, self.kn, self.c1, self.c2, self.sigma / dt, n.newton_max_iter, n.newton_tol,
             self._P_old, self._P_mid, self.H_old, self.H, self.H_mid, self.Hx_mid, self.Hy_mid,
-            self.Hx, self.Hy, self._R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp,
+            self._R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp,
             self._diag, self._rhs, self._delta, self._work,
         )  # fmt: skip
         self.work.reynolds_solves += 1
@@ -216,8 +242,8 @@ def steady_newton(
     """
     shape = H.shape
     nr, nx, ny = shape
-    R = np.empty(shape)
-    Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (np.empty(shape) for _ in range(6))
+    R = np.zeros(shape)
+    Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (np.zeros(shape) for _ in range(6))
     interior = np.zeros(shape, dtype=bool)
     interior[:, 1:-1, 1:-1] = True
     flat_interior = interior.ravel()
@@ -227,7 +253,9 @@ def steady_newton(
     res_prev = None
     step = np.inf
     for it in range(1, max_iter + 1):
-        kr.assemble(P, H, Hx, Hy, dx, dy, dxc, dyc, lam, kn, c1, c2, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, y_flux)
+        kr.assemble(
+            P, H, Hx, Hy, dx, dy, dxc, dyc, lam, kn, c1, c2, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, y_flux
+        )
         res = float(np.abs(R[interior]).max())
         if res_prev is not None:
             tau = min(tau * min(1.0e3, max(2.0, res_prev / max(res, 1e-300))), 1.0e30)

@@ -29,7 +29,6 @@ impact limit, -1 failed), ``message`` and work counters.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -37,8 +36,9 @@ import numpy as np
 
 from .airbearing import make_air_bearing
 from .contact import ContactError, Impact, corner_normal, impact_map, surface_slope
-from .dynamics import mass_matrix, suspension_forces
+from .dynamics import mass_matrix
 from .geometry import corner_positions
+from .kernels import motion as km
 from .params import Scene
 from .steady import SteadyFlight, fly
 
@@ -65,45 +65,26 @@ class Result:
         return self.corner_spacing.min(axis=1)
 
 
-def first_crossing(gap0: float, rate: float, curvature: float, s_max: float) -> float:
-    """Smallest s in (0, s_max] with gap0 + rate s + curvature s^2 / 2 = 0, crossing downward.
-
-    Returns inf if there is none.  gap0 >= 0 is the spacing above the
-    asperities (m); rate its derivative (m/s); curvature its second derivative.
-    """
-    a, b, c = 0.5 * curvature, rate, gap0
-    roots: list[float] = []
-    if abs(a) * s_max * s_max <= 1e-14 * (abs(b) * s_max + abs(c)) or a == 0.0:
-        if b < 0.0:
-            roots.append(-c / b)
-    else:
-        disc = b * b - 4.0 * a * c
-        if disc >= 0.0:
-            sq = math.sqrt(disc)
-            # numerically stable pair of roots
-            qq = -0.5 * (b + math.copysign(sq, b))
-            if qq != 0.0:
-                roots.extend([qq / a, c / qq])
-            else:
-                roots.append(0.0)
-    best = math.inf
-    for s in roots:
-        if 0.0 < s <= s_max and rate + curvature * s < 0.0:
-            best = min(best, s)
-    return best
-
-
-def simulate(scene: Scene, steady: SteadyFlight | None = None, *, progress: bool = False) -> Result:
+def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     """Integrate one run of ``scene`` from steady flight plus the initial velocities."""
     wall0 = time.perf_counter()
     film = make_air_bearing(scene)
     if steady is None:
         steady = fly(scene, film=film)
-    suspension = steady.suspension
+    if steady.pressure.shape != film.P.shape:
+        raise ValueError("the steady flight was computed on another grid than this scene's")
+    sus = steady.suspension
+    suspension = np.array(
+        [
+            sus.preload,
+            sus.static_pitch_moment,
+            sus.static_roll_moment,
+            sus.pitch_stiffness,
+            sus.roll_stiffness,
+        ]
+    )
     q = steady.q.copy()
-    film.solve_steady(q, steady.pressure / scene.air.ambient_pressure)
-    film.work.reynolds_solves = 0
-    film.work.newton_iterations = 0
+    film.P = steady.pressure / scene.air.ambient_pressure
     init = scene.initial
     v = np.array([init.zdot, init.pitch_rate, init.roll_rate])
     num = scene.numerics
@@ -111,101 +92,83 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None, *, progress: bool
     corners = corner_positions(scene.slider)
     normals = np.array([corner_normal(x1, x2) for x1, x2 in corners])
     h0 = scene.disk.asperity_height
+    touch_tol = 1e-9 * max(h0, 1e-9)
     dt, t_end = num.dt, num.t_end
     n_grid = int(round(t_end / dt))
     out_every = max(1, int(round(num.output_interval / dt))) if num.output_interval > 0 else 1
-
-    f_air = film.generalized_forces()
-    acc = minv @ (f_air + suspension_forces(suspension, q))
-    ts, qs, vs, cs, fs = [0.0], [q.copy()], [v.copy()], [normals @ q], [f_air.copy()]
+    force_args = film.force_args()
+    film_args = film.kernel_args()
+    f_air = np.empty(3)
+    km.generalized_forces(
+        film.P, film.area, force_args[2], force_args[3], force_args[0], force_args[1], f_air
+    )
+    acc = np.empty(3)
+    km.accelerations(f_air, q, suspension, minv, acc)
+    ts, qs, vs, fs = [0.0], [q.copy()], [v.copy()], [f_air.copy()]
     impacts: list[Impact] = []
     status, message = 0, "reached t_end"
     t, k = 0.0, 0
-    steps = 0
-    gaps0 = normals @ q - h0
-    if np.any(gaps0 < -1e-9 * max(h0, 1e-12)):
-        raise ContactError(f"a corner starts below the asperity height (spacings {(gaps0 + h0).tolist()} m)")
+    steps = newton = 0
+    start_gaps = normals @ q - h0
+    if np.any(start_gaps < -touch_tol):
+        raise ContactError(
+            f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)"
+        )
     try:
         while k < n_grid:
             t_target = (k + 1) * dt
-            s_max = t_target - t
-            grid_step = True
-            if s_max < 1e-3 * dt and k + 1 < n_grid:
+            if t_target - t < 1e-3 * dt and k + 1 < n_grid:
                 k += 1
                 t_target = (k + 1) * dt
-                s_max = t_target - t
-            gaps = normals @ q - h0
-            rates = normals @ v
-            curv = normals @ acc
-            s_event, hit = math.inf, -1
-            for c in range(4):
-                s_c = first_crossing(max(gaps[c], 0.0), float(rates[c]), float(curv[c]), s_max)
-                if s_c < s_event:
-                    s_event, hit = s_c, c
-            s = s_max
-            if hit >= 0 and s_event < s_max * (1.0 - 1e-12):
-                s = s_event
-                grid_step = False
-            v_half = v + 0.5 * s * acc
-            q_new = q + s * v_half
-            film.step(q, q_new, s)
-            q = q_new
-            f_air = film.generalized_forces()
-            if not np.all(np.isfinite(f_air)):
-                raise FloatingPointError(f"film pressure became non-finite at t = {t + s:.6g} s")
-            acc = minv @ (f_air + suspension_forces(suspension, q))
-            v = v_half + 0.5 * s * acc
-            t = t_target if grid_step else t + s
+            s_max = t_target - t
+            s_event, hit = km.first_event(normals, q, v, acc, h0, s_max)
+            grid_step = not (hit >= 0 and s_event < s_max * (1.0 - 1e-12))
+            s = s_max if grid_step else s_event
+            newton += km.verlet_step(
+                s, q, v, acc, f_air, minv, suspension, *force_args, film.P, *film_args
+            )
             steps += 1
+            if not np.isfinite(f_air).all():
+                raise FloatingPointError(f"film pressure became non-finite at t = {t + s:.6g} s")
             if grid_step:
+                t = t_target
                 k += 1
-            else:
-                gap_hit = float(normals[hit] @ q - h0)
-                if abs(gap_hit) > 1e-9 * max(h0, 1e-9):
-                    raise ContactError(f"event location missed corner spacing by {gap_hit:.3g} m")
-                # resolve every corner that sits at the asperity height and approaches
-                for _ in range(8):
-                    touching = np.flatnonzero(np.abs(normals @ q - h0) <= 1e-9 * max(h0, 1e-9))
-                    resolved = False
-                    for c in touching:
-                        v_new, impulse = impact_map(q, v, int(c), scene, minv)
-                        if impulse > 0.0:
-                            u_before = -float(normals[c] @ v)
-                            u_after = -float(normals[c] @ v_new)
-                            wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
-                            impacts.append(
-                                Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after)
-                            )
-                            v = v_new
-                            resolved = True
-                    if not resolved:
-                        break
-                if len(impacts) >= scene.contact.max_impacts:
-                    status, message = 1, f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
-                    break
-            if grid_step and (k % out_every == 0 or k == n_grid):
-                ts.append(t)
-                qs.append(q.copy())
-                vs.append(v.copy())
-                cs.append(normals @ q)
-                fs.append(f_air.copy())
+                if k % out_every == 0 or k == n_grid:
+                    ts.append(t)
+                    qs.append(q.copy())
+                    vs.append(v.copy())
+                    fs.append(f_air.copy())
+                continue
+            t += s
+            gap_hit = float(normals[hit] @ q - h0)
+            if abs(gap_hit) > touch_tol:
+                raise ContactError(f"event location missed the asperity height by {gap_hit:.3g} m")
+            v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts)
+            if len(impacts) >= scene.contact.max_impacts:
+                status = 1
+                message = (
+                    f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
+                )
+                break
     except (ContactError, FloatingPointError, np.linalg.LinAlgError) as err:
         status, message = -1, f"{type(err).__name__}: {err}"
         log.warning("run failed: %s", message)
-    wall = time.perf_counter() - wall0
+    film.work.reynolds_solves += steps
+    film.work.newton_iterations += newton
     work = {
         "steps": steps,
         "reynolds_solves": film.work.reynolds_solves,
-        "newton_iterations": film.work.newton_iterations,
+        "newton_iterations": newton,
         "rejected_steps": 0,
         "impacts": len(impacts),
-        "wall_time": wall,
+        "wall_time": time.perf_counter() - wall0,
     }
+    qs_arr = np.array(qs)
     return Result(
         t=np.array(ts),
-        q=np.array(qs),
+        q=qs_arr,
         v=np.array(vs),
-        corner_spacing=np.array(cs),
+        corner_spacing=qs_arr @ normals.T,
         air_force=np.array(fs),
         impacts=impacts,
         status=status,
@@ -213,3 +176,37 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None, *, progress: bool
         steady=steady,
         work=work,
     )
+
+
+def _resolve_impacts(
+    scene: Scene,
+    q: np.ndarray,
+    v: np.ndarray,
+    t: float,
+    normals: np.ndarray,
+    touch_tol: float,
+    minv: np.ndarray,
+    impacts: list[Impact],
+) -> np.ndarray:
+    """Apply the impact map at every corner touching the asperities and approaching them.
+
+    Corners touching at once (two rear corners at zero roll) are resolved one
+    after the other until none approaches (at most 8 passes).
+    """
+    touching = np.flatnonzero(np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol)
+    for _ in range(8):
+        resolved = False
+        for c in touching:
+            v_new, impulse = impact_map(q, v, int(c), scene, minv)
+            if impulse > 0.0:
+                u_before = -float(normals[c] @ v)
+                u_after = -float(normals[c] @ v_new)
+                wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
+                impacts.append(
+                    Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after)
+                )
+                v = v_new
+                resolved = True
+        if not resolved:
+            break
+    return v

@@ -12,6 +12,7 @@ import os
 from collections.abc import Callable
 from typing import Any
 
+FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
 JIT_DISABLED = os.environ.get("HDI_DISABLE_JIT", "0") not in ("", "0", "false", "False")
 
 
@@ -21,4 +22,4 @@ def njit(func: Callable[..., Any]) -> Callable[..., Any]:
         return func
     import numba
 
-    return numba.njit(cache=True, nogil=True)(func)
+    return numba.njit(cache=True, nogil=True, fastmath=FASTMATH)(func)

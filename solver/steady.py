@@ -60,7 +60,10 @@ class SteadyFlight:
 def _balance(film: ReynoldsFilm, scene: Scene, q: np.ndarray, P0: np.ndarray | None) -> np.ndarray:
     film.solve_steady(q, P0)
     f = film.generalized_forces() + suspension_forces(scene.suspension, q)
-    scale = max(scene.suspension.preload, 1e-3 * scene.air.ambient_pressure * film.length * scene.slider.rail_width)
+    scale = max(
+        scene.suspension.preload,
+        1e-3 * scene.air.ambient_pressure * film.length * scene.slider.rail_width,
+    )
     return f / np.array([scale, scale * film.length, scale * film.length])
 
 
@@ -82,7 +85,9 @@ def calibrated_suspension(scene: Scene, film: ReynoldsFilm, q: np.ndarray) -> Su
     )
 
 
-def fly(scene: Scene, q0: np.ndarray | None = None, film: ReynoldsFilm | None = None, max_iter: int = 60) -> SteadyFlight:
+def fly(
+    scene: Scene, q0: np.ndarray | None = None, film: ReynoldsFilm | None = None, max_iter: int = 60
+) -> SteadyFlight:
     """Steady flight of ``scene``, following ``scene.calibration.mode``.
 
     ``none``: Newton on the attitude with the scene's suspension.
@@ -137,7 +142,9 @@ def fly(scene: Scene, q0: np.ndarray | None = None, film: ReynoldsFilm | None = 
     return _steady_flight(scene, film, q, scene.suspension, float(np.abs(f).max()))
 
 
-def _steady_flight(scene: Scene, film: ReynoldsFilm, q: np.ndarray, suspension: Suspension, residual: float) -> SteadyFlight:
+def _steady_flight(
+    scene: Scene, film: ReynoldsFilm, q: np.ndarray, suspension: Suspension, residual: float
+) -> SteadyFlight:
     corners = corner_positions(scene.slider)
     L = film.length
     h = film.spacing(q)
