@@ -174,9 +174,7 @@ class ReynoldsFilm:
         """Steady pressure (2, nx, ny) [p0 units] at attitude q; stored in ``self.P``."""
         self.fill_spacing(q, self.H, self.Hx, self.Hy)
         if np.any(self.H <= 0.0):
-            raise SteadyFilmError(
-                f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0"
-            )
+            raise SteadyFilmError(f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0")
         try:
             P, its = steady_newton(
                 self.H, self.Hx, self.Hy, self.dx, self.dy, self.dxc, self.dyc, self.lam, self.kn,
@@ -253,9 +251,7 @@ def steady_newton(
     res_prev = None
     step = np.inf
     for it in range(1, max_iter + 1):
-        kr.assemble(
-            P, H, Hx, Hy, dx, dy, dxc, dyc, lam, kn, c1, c2, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, y_flux
-        )
+        kr.assemble(P, H, Hx, Hy, dx, dy, dxc, dyc, lam, kn, c1, c2, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, y_flux)
         res = float(np.abs(R[interior]).max())
         if res_prev is not None:
             tau = min(tau * min(1.0e3, max(2.0, res_prev / max(res, 1e-300))), 1.0e30)

@@ -108,8 +108,6 @@ def restitution_impact(
 CONTACT_LAWS = {"restitution": restitution_impact}
 
 
-def impact_map(
-    q: np.ndarray, v: np.ndarray, corner: int, scene: Scene, minv: np.ndarray | None = None
-):
+def impact_map(q: np.ndarray, v: np.ndarray, corner: int, scene: Scene, minv: np.ndarray | None = None):
     """The contact law named by ``scene.models.contact``: (v_after, impulse)."""
     return CONTACT_LAWS[scene.models.contact](q, v, corner, scene, minv)

@@ -20,9 +20,7 @@ from .params import Scene, Slider, Suspension
 def mass_matrix(slider: Slider) -> np.ndarray:
     """3 x 3 mass matrix of (z, pitch, roll) [kg, kg m, kg m2]."""
     m, a = slider.mass, slider.cg_offset
-    return np.array(
-        [[m, m * a, 0.0], [m * a, slider.pitch_inertia, 0.0], [0.0, 0.0, slider.roll_inertia]]
-    )
+    return np.array([[m, m * a, 0.0], [m * a, slider.pitch_inertia, 0.0], [0.0, 0.0, slider.roll_inertia]])
 
 
 def suspension_forces(suspension: Suspension, q: np.ndarray) -> np.ndarray:

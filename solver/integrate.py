@@ -99,9 +99,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     force_args = film.force_args()
     film_args = film.kernel_args()
     f_air = np.empty(3)
-    km.generalized_forces(
-        film.P, film.area, force_args[2], force_args[3], force_args[0], force_args[1], f_air
-    )
+    km.generalized_forces(film.P, film.area, force_args[2], force_args[3], force_args[0], force_args[1], f_air)
     acc = np.empty(3)
     km.accelerations(f_air, q, suspension, minv, acc)
     ts, qs, vs, fs = [0.0], [q.copy()], [v.copy()], [f_air.copy()]
@@ -111,9 +109,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     steps = newton = 0
     start_gaps = normals @ q - h0
     if np.any(start_gaps < -touch_tol):
-        raise ContactError(
-            f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)"
-        )
+        raise ContactError(f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)")
     try:
         while k < n_grid:
             t_target = (k + 1) * dt
@@ -124,9 +120,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
             s_event, hit = km.first_event(normals, q, v, acc, h0, s_max)
             grid_step = not (hit >= 0 and s_event < s_max * (1.0 - 1e-12))
             s = s_max if grid_step else s_event
-            newton += km.verlet_step(
-                s, q, v, acc, f_air, minv, suspension, *force_args, film.P, *film_args
-            )
+            newton += km.verlet_step(s, q, v, acc, f_air, minv, suspension, *force_args, film.P, *film_args)
             steps += 1
             if not np.isfinite(f_air).all():
                 raise FloatingPointError(f"film pressure became non-finite at t = {t + s:.6g} s")
@@ -146,9 +140,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
             v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts)
             if len(impacts) >= scene.contact.max_impacts:
                 status = 1
-                message = (
-                    f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
-                )
+                message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
                 break
     except (ContactError, FloatingPointError, np.linalg.LinAlgError) as err:
         status, message = -1, f"{type(err).__name__}: {err}"
@@ -202,9 +194,7 @@ def _resolve_impacts(
                 u_before = -float(normals[c] @ v)
                 u_after = -float(normals[c] @ v_new)
                 wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
-                impacts.append(
-                    Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after)
-                )
+                impacts.append(Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after))
                 v = v_new
                 resolved = True
         if not resolved:

@@ -83,28 +83,20 @@ def _check_field(section: str, f: dataclasses.Field, value: Any) -> None:
     expected = type(f.default)
     if expected is bool:
         if not isinstance(value, bool):
-            raise ParameterError(
-                f"{key} = {value!r} has the wrong type: expected true or false {what}"
-            )
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected true or false {what}")
         return
     if expected is str:
         if not isinstance(value, str):
             raise ParameterError(f"{key} = {value!r} has the wrong type: expected a string {what}")
         if meta["choices"] is not None and value not in meta["choices"]:
-            raise ParameterError(
-                f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)} {what}"
-            )
+            raise ParameterError(f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)} {what}")
         return
     if expected is int:
         if isinstance(value, bool) or not isinstance(value, int):
-            raise ParameterError(
-                f"{key} = {value!r} has the wrong type: expected an integer {what}"
-            )
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected an integer {what}")
     elif expected is float:
         if isinstance(value, bool) or not isinstance(value, int | float):
-            raise ParameterError(
-                f"{key} = {value!r} has the wrong type: expected a number{units} {what}"
-            )
+            raise ParameterError(f"{key} = {value!r} has the wrong type: expected a number{units} {what}")
         if not math.isfinite(value):
             raise ParameterError(f"{key} = {value!r} is not allowed: must be finite {what}")
     lo, hi = meta["lo"], meta["hi"]
@@ -114,9 +106,7 @@ def _check_field(section: str, f: dataclasses.Field, value: Any) -> None:
     if hi is not None and (value > hi or (meta["hi_open"] and value == hi)):
         bad = True
     if bad:
-        raise ParameterError(
-            f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)}{units} {what}"
-        )
+        raise ParameterError(f"{key} = {value!r} is not allowed: must be {_allowed_text(meta)}{units} {what}")
 
 
 class Section:
@@ -143,12 +133,8 @@ class Slider(Section):
     section = "slider"
     width: float = quantity(3.2e-3, "m", "slider width", symbol="w", lo=0.0, lo_open=True)
     rail_width: float = quantity(0.686e-3, "m", "rail width", symbol="b", lo=0.0, lo_open=True)
-    flat_front: float = quantity(
-        1.788e-3, "m", "gimbal to taper/flat juncture", symbol="c", lo=0.0, lo_open=True
-    )
-    flat_rear: float = quantity(
-        1.0e-3 * 0.382, "m", "gimbal to trailing edge", symbol="d", lo=0.0, lo_open=True
-    )
+    flat_front: float = quantity(1.788e-3, "m", "gimbal to taper/flat juncture", symbol="c", lo=0.0, lo_open=True)
+    flat_rear: float = quantity(1.0e-3 * 0.382, "m", "gimbal to trailing edge", symbol="d", lo=0.0, lo_open=True)
     taper_length: float = quantity(
         0.5e-3,
         "m",
@@ -157,19 +143,13 @@ class Slider(Section):
         lo=0.0,
         lo_open=True,
     )
-    taper_angle: float = quantity(
-        0.0145, "rad", "taper angle", symbol="theta0", lo=0.0, hi=0.2, lo_open=True
-    )
+    taper_angle: float = quantity(0.0145, "rad", "taper angle", symbol="theta0", lo=0.0, hi=0.2, lo_open=True)
     mass: float = quantity(0.071e-3, "kg", "slider mass", symbol="m", lo=0.0, lo_open=True)
     pitch_inertia: float = quantity(
         0.143e-9, "kg m2", "pitch inertia about the gimbal", symbol="I1", lo=0.0, lo_open=True
     )
-    roll_inertia: float = quantity(
-        0.074e-9, "kg m2", "roll inertia", symbol="I2", lo=0.0, lo_open=True
-    )
-    cg_offset: float = quantity(
-        0.028e-3, "m", "mass centre ahead of the gimbal (mass centre at x1 = -a)", symbol="a"
-    )
+    roll_inertia: float = quantity(0.074e-9, "kg m2", "roll inertia", symbol="I2", lo=0.0, lo_open=True)
+    cg_offset: float = quantity(0.028e-3, "m", "mass centre ahead of the gimbal (mass centre at x1 = -a)", symbol="a")
     friction_lever: float = quantity(
         1.0e-3, "m", "gimbal height above the disk surface (friction lever arm)", symbol="e", lo=0.0
     )
@@ -201,9 +181,7 @@ class Suspension(Section):
 
     section = "suspension"
     preload: float = quantity(0.0932, "N", "preload through the gimbal", symbol="F", lo=0.0)
-    pitch_stiffness: float = quantity(
-        0.0, "N m rad-1", "gimbal pitch stiffness", symbol="k1", lo=0.0
-    )
+    pitch_stiffness: float = quantity(0.0, "N m rad-1", "gimbal pitch stiffness", symbol="k1", lo=0.0)
     roll_stiffness: float = quantity(0.0, "N m rad-1", "gimbal roll stiffness", symbol="k2", lo=0.0)
     static_pitch_moment: float = quantity(
         0.0, "N m", "static suspension pitch moment (positive lifts the leading edge)", symbol="M1"
@@ -214,24 +192,16 @@ class Suspension(Section):
 @dataclass(frozen=True)
 class Air(Section):
     section = "air"
-    ambient_pressure: float = quantity(
-        101.0e3, "Pa", "ambient pressure", symbol="p0", lo=0.0, lo_open=True
-    )
-    viscosity: float = quantity(
-        18.1e-6, "Pa s", "air viscosity", symbol="eta", lo=0.0, lo_open=True
-    )
-    mean_free_path: float = quantity(
-        0.06e-6, "m", "mean free path of air at p0", symbol="lambda", lo=0.0
-    )
+    ambient_pressure: float = quantity(101.0e3, "Pa", "ambient pressure", symbol="p0", lo=0.0, lo_open=True)
+    viscosity: float = quantity(18.1e-6, "Pa s", "air viscosity", symbol="eta", lo=0.0, lo_open=True)
+    mean_free_path: float = quantity(0.06e-6, "m", "mean free path of air at p0", symbol="lambda", lo=0.0)
 
 
 @dataclass(frozen=True)
 class Disk(Section):
     section = "disk"
     speed: float = quantity(2.0, "m s-1", "disk speed under the slider", symbol="V", lo=0.0)
-    asperity_height: float = quantity(
-        0.050e-6, "m", "asperity height above the base plane", symbol="h0", lo=0.0
-    )
+    asperity_height: float = quantity(0.050e-6, "m", "asperity height above the base plane", symbol="h0", lo=0.0)
 
 
 @dataclass(frozen=True)
@@ -248,9 +218,7 @@ class Initial(Section):
     """Disturbance from steady flight, as initial velocities."""
 
     section = "initial"
-    zdot: float = quantity(
-        -0.01, "m s-1", "initial vertical velocity of the gimbal", symbol="zdot0"
-    )
+    zdot: float = quantity(-0.01, "m s-1", "initial vertical velocity of the gimbal", symbol="zdot0")
     pitch_rate: float = quantity(5.0, "rad s-1", "initial pitch rate", symbol="th1dot0")
     roll_rate: float = quantity(10.0, "rad s-1", "initial roll rate", symbol="th2dot0")
 
@@ -271,12 +239,8 @@ class Calibration(Section):
     """
 
     section = "calibration"
-    mode: str = quantity(
-        "source_attitude", "", "steady-state calibration", choices=CALIBRATION_MODES
-    )
-    z: float = quantity(
-        0.115e-6, "m", "target gimbal height (source_attitude mode)", lo=0.0, lo_open=True
-    )
+    mode: str = quantity("source_attitude", "", "steady-state calibration", choices=CALIBRATION_MODES)
+    z: float = quantity(0.115e-6, "m", "target gimbal height (source_attitude mode)", lo=0.0, lo_open=True)
     pitch: float = quantity(13.5e-6, "rad", "target pitch (source_attitude mode)")
     roll: float = quantity(0.0, "rad", "target roll (source_attitude mode)")
 
@@ -318,15 +282,9 @@ class Numerics(Section):
     )
     dt: float = quantity(1.0e-7, "s", "time step", lo=0.0, lo_open=True)
     t_end: float = quantity(300.0e-6, "s", "duration of a run", lo=0.0, lo_open=True)
-    output_interval: float = quantity(
-        0.2e-6, "s", "sampling interval of stored time series", lo=0.0
-    )
-    newton_max_iter: int = quantity(
-        1, "1", "Newton iterations per time step (1 = linearly implicit)", lo=1
-    )
-    newton_tol: float = quantity(
-        1.0e-10, "1", "Newton tolerance on the scaled film residual", lo=0.0, lo_open=True
-    )
+    output_interval: float = quantity(0.2e-6, "s", "sampling interval of stored time series", lo=0.0)
+    newton_max_iter: int = quantity(1, "1", "Newton iterations per time step (1 = linearly implicit)", lo=1)
+    newton_tol: float = quantity(1.0e-10, "1", "Newton tolerance on the scaled film residual", lo=0.0, lo_open=True)
     steady_tol: float = quantity(
         1.0e-10,
         "1",
@@ -409,9 +367,7 @@ def field_metadata(dotted_key: str) -> dict[str, Any]:
     """units / long_name / symbol of a dotted scene key such as 'contact.mu'."""
     section, _, name = dotted_key.partition(".")
     if section not in SECTIONS:
-        raise ParameterError(
-            f"unknown section {section!r} in key {dotted_key!r}: allowed {', '.join(SECTIONS)}"
-        )
+        raise ParameterError(f"unknown section {section!r} in key {dotted_key!r}: allowed {', '.join(SECTIONS)}")
     for f in dataclasses.fields(SECTIONS[section]):
         if f.name == name:
             return dict(f.metadata)
@@ -431,9 +387,7 @@ def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Scene:
     for key in ("name", "description"):
         if key in data:
             if not isinstance(data[key], str):
-                raise ParameterError(
-                    f"{key} = {data[key]!r} in {source} has the wrong type: expected a string"
-                )
+                raise ParameterError(f"{key} = {data[key]!r} in {source} has the wrong type: expected a string")
             kwargs[key] = data[key]
     for name, cls in SECTIONS.items():
         values = data.get(name, {})

@@ -104,7 +104,6 @@ def fly(
     q = initial_attitude(scene) if q0 is None else np.array(q0, dtype=float)
     tol = 100.0 * scene.numerics.steady_tol
     L = film.length
-    corners = corner_positions(scene.slider)
     P = None
     f = _balance(film, scene, q, P)
     P = film.P.copy()

@@ -91,9 +91,7 @@ def generalized_forces(
 
 
 @njit
-def accelerations(
-    f_air: np.ndarray, q: np.ndarray, suspension: np.ndarray, minv: np.ndarray, acc: np.ndarray
-) -> None:
+def accelerations(f_air: np.ndarray, q: np.ndarray, suspension: np.ndarray, minv: np.ndarray, acc: np.ndarray) -> None:
     """acc = M^-1 (f_air + f_susp); suspension = (F, M1, M2, k1, k2)."""
     f0 = f_air[0] - suspension[0]
     f1 = f_air[1] + suspension[1] - suspension[3] * q[1]

@@ -222,9 +222,7 @@ def af_solve(
                     else 1.0 / (diag[r, i, j] + weight * Jcx[r, i, j])
                 )
                 cp[i, j] = upper * inv
-                dp[i, j] = (
-                    (rhs[r, i, j] - lower * dp[i - 1, j]) * inv if i > 1 else rhs[r, i, j] * inv
-                )
+                dp[i, j] = (rhs[r, i, j] - lower * dp[i - 1, j]) * inv if i > 1 else rhs[r, i, j] * inv
         for j in range(1, ny - 1):
             work[r, nx - 2, j] = dp[nx - 2, j]
         for i in range(nx - 3, 0, -1):
@@ -307,9 +305,7 @@ def fill_node_spacing(
 
 
 @njit
-def load_moments(
-    P: np.ndarray, area: np.ndarray, x: np.ndarray, y: np.ndarray
-) -> tuple[float, float, float]:
+def load_moments(P: np.ndarray, area: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
     """Integrals of (P - 1) dA, x (P - 1) dA and y (P - 1) dA (midpoint rule on control volumes).
 
     P : (nr, nx, ny); area : (nx, ny) control-volume areas; x : (nx,); y : (nr, ny).
@@ -354,10 +350,7 @@ def midpoint_rhs(
                 ca = ct * area[i, j]
                 dg = ca * H_new[r, i, j]
                 diag[r, i, j] = dg
-                res = (
-                    ca * (P_iter[r, i, j] * H_new[r, i, j] - P_old[r, i, j] * H_old[r, i, j])
-                    + R[r, i, j]
-                )
+                res = ca * (P_iter[r, i, j] * H_new[r, i, j] - P_old[r, i, j] * H_old[r, i, j]) + R[r, i, j]
                 rhs[r, i, j] = -res
                 scaled = abs(res) / dg
                 if scaled > worst:
