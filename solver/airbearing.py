@@ -2,6 +2,8 @@
 
 ``reynolds``: the time-dependent compressible Reynolds equation with slip
 solved on-line on both rails (finite volumes, :mod:`solver.kernels.reynolds`).
+``none``: no film at all (zero rails), for free flight and contact-only
+checks; it runs through the same kernels with empty arrays.
 
 Time step (implicit midpoint in the conserved variable P H, second order):
 
@@ -104,7 +106,9 @@ class ReynoldsFilm:
         self.dxc = control_volume_widths(x) / L
         self.dyc = control_volume_widths(y) / L
         self.area = np.outer(self.dxc, self.dyc)
-        nr = 2
+        nr = 0 if self.scene.models.air_bearing == "none" else 2
+        self.y_abs = self.y_abs[:nr]
+        self.yf_abs = self.yf_abs[:nr]
 
         def recess(xs: np.ndarray, ncols: int) -> np.ndarray:
             depth = np.minimum(xs + s.flat_front, 0.0) * s.taper_angle
@@ -172,6 +176,8 @@ class ReynoldsFilm:
     # ------------------------------------------------------------------ steady
     def solve_steady(self, q: np.ndarray, P0: np.ndarray | None = None) -> np.ndarray:
         """Steady pressure (2, nx, ny) [p0 units] at attitude q; stored in ``self.P``."""
+        if self.P.shape[0] == 0:
+            return self.P
         self.fill_spacing(q, self.H, self.Hx, self.Hy)
         if np.any(self.H <= 0.0):
             raise SteadyFilmError(f"the slider touches the disk plane at attitude {q.tolist()}: spacing <= 0")
@@ -276,7 +282,7 @@ def steady_newton(
     )
 
 
-AIR_BEARINGS = {"reynolds": ReynoldsFilm}
+AIR_BEARINGS = {"reynolds": ReynoldsFilm, "none": ReynoldsFilm}
 
 
 def make_air_bearing(scene: Scene) -> ReynoldsFilm:

@@ -245,7 +245,7 @@ class Calibration(Section):
     roll: float = quantity(0.0, "rad", "target roll (source_attitude mode)")
 
 
-AIR_BEARING_MODELS = ("reynolds",)
+AIR_BEARING_MODELS = ("reynolds", "none")
 SLIP_MODELS = ("first_order", "continuum", "second_order")
 CONTACT_MODELS = ("restitution",)
 

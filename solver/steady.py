@@ -96,6 +96,11 @@ def fly(
     """
     film = make_air_bearing(scene) if film is None else film
     cal = scene.calibration
+    if film.P.shape[0] == 0 and cal.mode != "source_attitude":
+        raise AttitudeError(
+            "models.air_bearing = 'none' has no film to fly on: set calibration.mode = 'source_attitude' "
+            "or pass the initial state"
+        )
     if cal.mode == "source_attitude":
         q = np.array([cal.z, cal.pitch, cal.roll])
         film.solve_steady(q)
@@ -145,24 +150,30 @@ def _steady_flight(
     scene: Scene, film: ReynoldsFilm, q: np.ndarray, suspension: Suspension, residual: float
 ) -> SteadyFlight:
     corners = corner_positions(scene.slider)
-    L = film.length
-    h = film.spacing(q)
-    k = np.unravel_index(np.argmin(h), h.shape)
+    at_corners = corner_spacings(q, corners)
     forces = film.generalized_forces()
-    load = forces[0]
+    load = float(forces[0])
+    if film.P.shape[0]:
+        h = film.spacing(q)
+        k = np.unravel_index(np.argmin(h), h.shape)
+        hmin, where = float(h.min()), (float(film.x[k[1]]), float(film.y_abs[k[0], k[2]]))
+        cop = (float(-forces[1] / load), float(-forces[2] / load))
+    else:
+        c = int(np.argmin(at_corners))
+        hmin, where = float(at_corners[c]), (float(corners[c, 0]), float(corners[c, 1]))
+        cop = (float("nan"), float("nan"))
     air, disk = scene.air, scene.disk
-    hmin = float(h.min())
     return SteadyFlight(
         z=float(q[0]),
         pitch=float(q[1]),
         roll=float(q[2]),
         min_spacing=hmin,
-        min_spacing_x1=float(film.x[k[1]]),
-        min_spacing_x2=float(film.y_abs[k[0], k[2]]),
-        corner_spacings=corner_spacings(q, corners),
-        load=float(load),
-        centre_of_pressure=(float(-forces[1] / load), float(-forces[2] / load)),
-        bearing_number=6.0 * air.viscosity * disk.speed * L / (air.ambient_pressure * hmin**2),
+        min_spacing_x1=where[0],
+        min_spacing_x2=where[1],
+        corner_spacings=at_corners,
+        load=load,
+        centre_of_pressure=cop,
+        bearing_number=6.0 * air.viscosity * disk.speed * film.length / (air.ambient_pressure * hmin**2),
         pressure=film.P * air.ambient_pressure,
         x1=film.x.copy(),
         x2=film.y_abs.copy(),
