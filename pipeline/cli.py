@@ -1,0 +1,216 @@
+"""Command line: ``hdi fly | simulate | plot | bench | reproduce``.
+
+Every command validates its whole configuration before computing anything;
+errors name the key, the value and what is allowed, and exit with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from solver.params import ParameterError
+
+from . import __version__
+
+DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "studies" / "scenes" / "benson1989.toml"
+RESULTS = Path(__file__).resolve().parent.parent / "results"
+
+
+def _add_scene_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", help="scene file (TOML), e.g. studies/scenes/benson1989.toml")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scene value, e.g. --set contact.mu=0.5 (repeatable)",
+    )
+
+
+def _fmt_um(x: float) -> str:
+    return f"{x * 1e6:.4f} um"
+
+
+def cmd_fly(args: argparse.Namespace) -> int:
+    from solver.steady import fly
+
+    from .config import load_scene
+    from .store import fly_dataset, write_netcdf
+
+    scene = load_scene(args.scene, args.overrides)
+    t0 = time.perf_counter()
+    steady = fly(scene)
+    wall = time.perf_counter() - t0
+    print(f"scene {scene.name} (calibration: {scene.calibration.mode})")
+    print(f"  z                  {_fmt_um(steady.z)}")
+    print(f"  pitch              {steady.pitch * 1e6:.3f} urad")
+    print(f"  roll               {steady.roll * 1e6:.3f} urad")
+    print(
+        f"  minimum spacing    {_fmt_um(steady.min_spacing)} at x1 = {steady.min_spacing_x1 * 1e3:.3f} mm, "
+        f"x2 = {steady.min_spacing_x2 * 1e3:.3f} mm"
+    )
+    print("  corner spacings    " + ", ".join(f"{c} {h * 1e6:.4f}" for c, h in zip("ABCD", steady.corner_spacings)))
+    print(f"  bearing number     {steady.bearing_number:.1f} (6 eta V L / (p0 h_min^2))")
+    print(f"  load               {steady.load:.5f} N (preload in force {steady.suspension.preload:.5f} N)")
+    print(
+        f"  centre of pressure x1 = {steady.centre_of_pressure[0] * 1e3:.4f} mm, "
+        f"x2 = {steady.centre_of_pressure[1] * 1e3:.4f} mm"
+    )
+    print(f"  static moments     pitch {steady.suspension.static_pitch_moment:.4e} N m, "
+          f"roll {steady.suspension.static_roll_moment:.4e} N m")  # fmt: skip
+    print(
+        f"  work               {steady.reynolds_solves} steady Reynolds solves, "
+        f"{steady.newton_iterations} Newton iterations, {wall:.2f} s"
+    )
+    if args.output:
+        path = write_netcdf(fly_dataset(steady, scene, {"wall_time": wall}), args.output)
+        print(f"wrote {path}")
+    if args.plot:
+        from .figures import plot_fly, save_figure
+        from .store import open_result
+
+        print(
+            f"wrote {save_figure(plot_fly(open_result(args.output)) if args.output else _fly_fig(steady, scene), args.plot)}"
+        )
+    return 0
+
+
+def _fly_fig(steady, scene):
+    from .figures import plot_fly
+    from .store import fly_dataset
+
+    return plot_fly(fly_dataset(steady, scene))
+
+
+def simulate_scene(scene, output: Path | None, plot: Path | None, quiet: bool = False):
+    """Fly, simulate, print the impact history and classification, write files."""
+    from solver.integrate import simulate
+
+    from .store import run_dataset, write_netcdf
+
+    result = simulate(scene)
+    ds = run_dataset(result, scene)
+    if not quiet:
+        c = scene.contact
+        print(
+            f"scene {scene.name}: mu = {c.mu}, alpha = {c.alpha}, zdot0 = {scene.initial.zdot} m/s, "
+            f"t_end = {scene.numerics.t_end * 1e6:.0f} us"
+        )
+        print(f"  status {result.status}: {result.message}")
+        for k, imp in enumerate(result.impacts):
+            print(f"  impact {k + 1:3d}  t = {imp.time * 1e6:8.3f} us  corner {imp.corner_letter}  "
+                  f"q = {imp.impulse * 1e6:.4f} uN s")  # fmt: skip
+        verdict = "STABLE" if int(ds["stable"]) else "UNSTABLE"
+        print(
+            f"  {verdict}: {int(ds['n_impacts'])} impacts, {int(ds['n_larger_than_first'])} larger than the first, "
+            f"{int(ds['n_front_corner_impacts'])} at front corners, max ratio {float(ds['max_impulse_ratio']):.3f}"
+        )
+        w = result.work
+        print(
+            f"  work: {w['steps']} steps, {w['newton_iterations']} Newton iterations, "
+            f"{w['wall_time']:.2f} s ({w['wall_time'] / max(w['steps'], 1) * 1e3:.3f} ms/step)"
+        )
+    if output:
+        print(f"wrote {write_netcdf(ds, output)}")
+    if plot:
+        from .figures import plot_run, save_figure
+
+        print(f"wrote {save_figure(plot_run(ds), plot)}")
+    return ds
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .config import load_scene
+
+    scene = load_scene(args.scene, args.overrides)
+    simulate_scene(scene, args.output, args.plot)
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .figures import plot_dataset, save_figure
+    from .store import open_result
+
+    ds = open_result(args.file)
+    print(f"wrote {save_figure(plot_dataset(ds), args.output)}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    """The main job: scene 1 steady flight and the source's two contact sequences, into results/."""
+    from .config import load_scene
+
+    out = Path(args.results)
+    t0 = time.perf_counter()
+    ns = argparse.Namespace(
+        scene=str(DEFAULT_SCENE), overrides=[], output=out / "benson1989_fly.nc", plot=out / "benson1989_fly.png"
+    )
+    cmd_fly(ns)
+    for alpha in ("0.80", "0.85"):
+        scene = load_scene(DEFAULT_SCENE, [f"contact.alpha={alpha}", "contact.mu=0.5"])
+        tag = alpha.replace(".", "")
+        print()
+        simulate_scene(scene, out / f"benson1989_mu05_alpha{tag}.nc", out / f"benson1989_mu05_alpha{tag}.png")
+    print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from .bench import run_bench
+
+    return run_bench(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="hdi", description="Slider air-bearing and head-disk contact dynamics")
+    parser.add_argument("--version", action="version", version=f"hdi-slider {__version__}")
+    parser.add_argument("-v", "--verbose", action="store_true", help="log diagnostics")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("fly", help="steady flying attitude of a scene")
+    _add_scene_args(p)
+    p.add_argument("-o", "--output", type=Path, help="netCDF file for the steady state")
+    p.add_argument("--plot", type=Path, help="PNG of the steady pressure")
+    p.set_defaults(func=cmd_fly)
+
+    p = sub.add_parser("simulate", help="one run: steady flight + disturbance, contacts, classification")
+    _add_scene_args(p)
+    p.add_argument("-o", "--output", type=Path, help="netCDF file of the run")
+    p.add_argument("--plot", type=Path, help="PNG of the run")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("plot", help="draw the figure that fits a result file")
+    p.add_argument("file", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
+    p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("bench", help="cost per step and per run against error, several grids")
+    p.add_argument("--scene", default=str(DEFAULT_SCENE))
+    p.add_argument("--quick", action="store_true", help="fewer grids and shorter runs (a smoke check)")
+    p.add_argument("--repeats", type=int, default=3, help="timed repeats per case (median reported)")
+    p.add_argument("-o", "--output", type=Path, help="netCDF file of the benchmark table")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("reproduce", help="the main job: scene-1 steady flight and contact runs into results/")
+    p.add_argument("--results", default=str(RESULTS), help="output folder (default: results/)")
+    p.set_defaults(func=cmd_reproduce)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(name)s: %(message)s")
+    try:
+        return args.func(args)
+    except ParameterError as err:
+        print(f"hdi: error: {err}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, ValueError) as err:
+        print(f"hdi: error: {err}", file=sys.stderr)
+        return 2
