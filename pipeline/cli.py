@@ -54,7 +54,10 @@ def cmd_fly(args: argparse.Namespace) -> int:
         f"  minimum spacing    {_fmt_um(steady.min_spacing)} at x1 = {steady.min_spacing_x1 * 1e3:.3f} mm, "
         f"x2 = {steady.min_spacing_x2 * 1e3:.3f} mm"
     )
-    print("  corner spacings    " + ", ".join(f"{c} {h * 1e6:.4f}" for c, h in zip("ABCD", steady.corner_spacings)))
+    print(
+        "  corner spacings    "
+        + ", ".join(f"{c} {h * 1e6:.4f}" for c, h in zip("ABCD", steady.corner_spacings, strict=True))
+    )
     print(f"  bearing number     {steady.bearing_number:.1f} (6 eta V L / (p0 h_min^2))")
     print(f"  load               {steady.load:.5f} N (preload in force {steady.suspension.preload:.5f} N)")
     print(
@@ -74,9 +77,8 @@ def cmd_fly(args: argparse.Namespace) -> int:
         from .figures import plot_fly, save_figure
         from .store import open_result
 
-        print(
-            f"wrote {save_figure(plot_fly(open_result(args.output)) if args.output else _fly_fig(steady, scene), args.plot)}"
-        )
+        fig = plot_fly(open_result(args.output)) if args.output else _fly_fig(steady, scene)
+        print(f"wrote {save_figure(fig, args.plot)}")
     return 0
 
 
