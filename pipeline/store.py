@@ -158,6 +158,9 @@ def write_netcdf(ds: xr.Dataset, path: str | Path) -> Path:
             if v.dtype.kind in "fiu" and v.ndim > 0
         }
         ds.to_netcdf(tmp, engine="netcdf4", encoding=encoding)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; results are for sharing
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -1,0 +1,79 @@
+"""Shared scenes and helpers for the physics tests.
+
+The scene-1 checks run on a small grid (61 x 9 nodes per rail) so that the
+whole suite stays fast; the published comparisons use the 1-D inclined
+slider, whose grids are cheap enough to run several resolutions and fit the
+observed order.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from solver.grid import control_volume_widths
+from solver.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider
+
+EPS = np.finfo(float).eps
+
+#: Scene-1 steady attitude of the source (z [m], pitch [rad], roll [rad]).
+SCENE1_ATTITUDE = np.array([0.115e-6, 13.5e-6, 0.0])
+
+#: Taper length that reproduces the source's steady state (not in the source).
+TAPER_LENGTH = 0.4e-3
+
+SMALL_GRID = {"nx": 61, "nx_taper": 11, "ny": 9}
+
+
+def small_scene(**sections) -> Scene:
+    """Scene 1 with the documented taper length on the small grid; ``sections`` replace whole sections."""
+    numerics = sections.pop("numerics", Numerics(**SMALL_GRID))
+    slider = sections.pop("slider", Slider(taper_length=TAPER_LENGTH))
+    return Scene(slider=slider, numerics=numerics, **sections)
+
+
+@pytest.fixture(scope="session")
+def scene1() -> Scene:
+    return small_scene()
+
+
+def rigid_scene(*, t_end: float, alpha: float = 0.5, max_impacts: int = 2000, **numerics) -> Scene:
+    """No film, no disk motion, no pitch/roll coupling: the slider is a point mass on four corners.
+
+    Pitch and roll inertias of 1e12 kg m^2 make the spin an impact gives
+    (x * impulse / I ~ 1e-21 rad/s) far below round-off, so the vertical
+    motion is the bouncing point mass of the textbook.
+    """
+    return Scene(
+        models=Models(air_bearing="none"),
+        initial=Initial(zdot=0.0, pitch_rate=0.0, roll_rate=0.0),
+        slider=Slider(taper_length=TAPER_LENGTH, cg_offset=0.0, pitch_inertia=1e12, roll_inertia=1e12),
+        disk=Disk(speed=0.0),
+        calibration=Calibration(pitch=0.0),
+        contact=Contact(alpha=alpha, mu=0.0, max_impacts=max_impacts),
+        numerics=Numerics(t_end=t_end, nx=41, nx_taper=11, ny=5, **numerics),
+    )
+
+
+def with_preload(steady, preload: float):
+    """A steady state whose suspension pushes with ``preload`` [N] (the film-free scenes have none)."""
+    return dataclasses.replace(steady, suspension=dataclasses.replace(steady.suspension, preload=preload))
+
+
+def inclined_slider_arrays(x: np.ndarray, K: float):
+    """Scaled spacing H = K - (K - 1) X of an inclined slider on nodes x, one rail, three columns.
+
+    Returns H, Hx, Hy, dx, dy, dxc, dyc for ``y = [0, 0.5, 1]`` (only the
+    middle column is unknown; use ``y_flux=False`` for an infinitely wide
+    bearing).
+    """
+    y = np.array([0.0, 0.5, 1.0])
+    xf = 0.5 * (x[1:] + x[:-1])
+    nodes = K - (K - 1.0) * x
+    faces = K - (K - 1.0) * xf
+    H = np.repeat(nodes[None, :, None], 3, axis=2)
+    Hx = np.repeat(faces[None, :, None], 3, axis=2)
+    Hy = np.repeat(nodes[None, :, None], 2, axis=2)
+    return H, Hx, Hy, np.diff(x), np.diff(y), control_volume_widths(x), control_volume_widths(y)

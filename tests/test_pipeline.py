@@ -1,0 +1,168 @@
+"""Pipeline: configuration, classification, netCDF round trips, figures and the command line."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.classify import classify_impulses
+from pipeline.cli import DEFAULT_SCENE, main
+from pipeline.config import ConfigError, load_scene, parse_override, scene_toml
+from pipeline.store import open_result, run_dataset, write_netcdf
+from solver.integrate import simulate
+from solver.params import ParameterError, scene_from_dict
+
+SMALL = [
+    "numerics.nx=41",
+    "numerics.nx_taper=9",
+    "numerics.ny=7",
+    "numerics.t_end=30e-6",
+    "numerics.output_interval=0.5e-6",
+]
+
+
+# ---------------------------------------------------------------- configuration
+def test_override_values_are_toml_typed():
+    assert parse_override("contact.mu=0.5") == ("contact.mu", 0.5)
+    assert parse_override("contact.wedging=false") == ("contact.wedging", False)
+    assert parse_override("models.slip=continuum") == ("models.slip", "continuum")
+    assert parse_override("numerics.nx=101") == ("numerics.nx", 101)
+
+
+def test_dotted_overrides_reach_the_scene():
+    scene = load_scene(DEFAULT_SCENE, ["contact.mu=0.3", "contact.alpha=1", "initial.zdot=-0.02"])
+    assert (scene.contact.mu, scene.contact.alpha, scene.initial.zdot) == (0.3, 1.0, -0.02)
+    assert isinstance(scene.contact.alpha, float)
+
+
+@pytest.mark.parametrize(
+    ("override", "words"),
+    [
+        ("contact.muu=1", ["contact.muu", "[contact]"]),
+        ("contact.alpha=1.5", ["contact.alpha", "1.5", "[0, 1]"]),
+        ("contact.mu=-0.1", ["contact.mu", "-0.1", ">= 0"]),
+        ("slider.mass=-1e-5", ["slider.mass", "-1e-05", "> 0"]),
+        ("slider.pitch_inertia=-1e-9", ["slider.pitch_inertia", "> 0"]),
+        ("numerics.nx_taper=4", ["numerics.nx_taper", "4", "taper"]),
+        ("contact.mu='high'", ["contact.mu", "'high'", "wrong type"]),
+        ("models.slip=magic", ["models.slip", "magic", "first_order"]),
+        ("numerics.nx=50.5", ["numerics.nx", "integer"]),
+    ],
+)
+def test_bad_input_names_key_value_and_what_is_allowed(override, words):
+    with pytest.raises(ParameterError) as err:
+        load_scene(DEFAULT_SCENE, [override])
+    for word in words:
+        assert word in str(err.value), (word, str(err.value))
+
+
+def test_unknown_key_in_a_file_names_the_file(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(DEFAULT_SCENE.read_text() + "\n[extras]\nfoo = 1\n")
+    with pytest.raises(ParameterError, match=r"unknown key 'extras' in .*bad\.toml"):
+        load_scene(bad)
+    typo = tmp_path / "typo.toml"
+    typo.write_text(DEFAULT_SCENE.read_text().replace("alpha = 0.8", "alpah = 0.8"))
+    with pytest.raises(ParameterError, match=r"contact\.alpah.*typo\.toml"):
+        load_scene(typo)
+
+
+def test_a_study_file_is_not_a_scene(tmp_path):
+    study = tmp_path / "study.toml"
+    study.write_text('[study]\nscene = "x.toml"\n')
+    with pytest.raises(ConfigError, match="study file"):
+        load_scene(study)
+
+
+def test_scene_toml_round_trips_every_parameter():
+    scene = load_scene(DEFAULT_SCENE, ["contact.mu=0.25", "models.slip=continuum"])
+    again = scene_from_dict(tomllib.loads(scene_toml(scene)), source="round trip")
+    assert again == scene
+
+
+# ---------------------------------------------------------------- classification
+def test_impulse_growth_classification():
+    g = classify_impulses(np.array([1.0, 0.5, 0.9, 0.2]), np.array([3, 1, 1, 3]))
+    assert (g.stable, g.n_impacts, g.n_larger_than_first, g.n_front_corner_impacts) == (1, 4, 0, 0)
+    assert g.max_impulse_ratio == pytest.approx(0.9)
+    g = classify_impulses(np.array([1.0, 0.5, 1.2, 2.0]), np.array([3, 0, 2, 1]))
+    assert (g.stable, g.n_larger_than_first, g.n_front_corner_impacts) == (0, 2, 2)
+    assert g.max_impulse_ratio == pytest.approx(2.0)
+    none = classify_impulses(np.array([]), np.array([], dtype=int))
+    assert none.stable == 1 and none.n_impacts == 0 and math.isnan(none.first_impulse)
+
+
+# ---------------------------------------------------------------- datasets
+@pytest.fixture(scope="module")
+def small_run():
+    scene = load_scene(DEFAULT_SCENE, [*SMALL, "contact.alpha=0.8"])
+    return scene, simulate(scene)
+
+
+def test_run_netcdf_round_trip_is_self_describing(small_run, tmp_path):
+    scene, result = small_run
+    assert result.status == 0 and len(result.impacts) >= 1
+    path = write_netcdf(run_dataset(result, scene), tmp_path / "run.nc")
+    assert not list(tmp_path.glob(".*tmp")), "temporary file left behind"
+    with xr.open_dataset(path) as ds:
+        ds.load()
+    assert ds.attrs["Conventions"].startswith("CF-")
+    for key in ("title", "source", "history", "git_commit", "package_version", "scene_toml"):
+        assert ds.attrs[key], key
+    for name, v in {**ds.data_vars, **ds.coords}.items():
+        if name in ("corner", "impact", "rail"):
+            continue
+        assert "long_name" in v.attrs and "units" in v.attrs, name
+    assert list(ds["impact_corner"].values) == [i.corner_letter for i in result.impacts]
+    np.testing.assert_array_equal(ds["impact_impulse"].values, [i.impulse for i in result.impacts])
+    np.testing.assert_array_equal(ds["z"].values, result.q[:, 0])
+    assert list(ds["stable"].attrs["flag_meanings"].split()) == ["unstable", "stable"]
+    assert int(ds["n_impacts"]) == len(result.impacts)
+    assert scene_from_dict(tomllib.loads(ds.attrs["scene_toml"]), source="attrs") == scene
+    # the classification stored agrees with the impulses stored
+    q = ds["impact_impulse"].values
+    assert int(ds["stable"]) == int(not np.any(q[1:] > q[0]))
+
+
+def test_open_result_rejects_files_that_are_not_ours(tmp_path):
+    other = tmp_path / "other.nc"
+    xr.Dataset({"a": ("x", [1.0])}).to_netcdf(other)
+    with pytest.raises(ValueError, match="not a netCDF file written by hdi"):
+        open_result(other)
+    text = tmp_path / "notes.nc"
+    text.write_text("hello")
+    with pytest.raises(ValueError, match="not a netCDF file"):
+        open_result(text)
+
+
+# ---------------------------------------------------------------- command line
+def test_cli_fly_simulate_plot(tmp_path, capsys):
+    fly_nc, run_nc, png = tmp_path / "fly.nc", tmp_path / "run.nc", tmp_path / "run.png"
+    sets = [a for s in SMALL for a in ("--set", s)]
+    assert main(["fly", str(DEFAULT_SCENE), *sets, "-o", str(fly_nc), "--plot", str(tmp_path / "fly.png")]) == 0
+    out = capsys.readouterr().out
+    assert "minimum spacing" in out and "bearing number" in out
+    fly = open_result(fly_nc)
+    assert float(fly["z"]) == pytest.approx(0.115e-6, rel=1e-12)
+    assert fly["pressure"].attrs["units"] == "Pa" and fly["pressure"].shape == (2, 41, 7)
+    # pressure is ambient on every rail edge and above it inside
+    p = fly["pressure"].values
+    assert np.allclose(p[:, 0, :], 101e3) and np.allclose(p[:, :, 0], 101e3)
+    assert p.max() > 101e3
+    assert main(["simulate", str(DEFAULT_SCENE), *sets, "--set", "contact.alpha=0.5", "-o", str(run_nc)]) == 0
+    out = capsys.readouterr().out
+    assert "impact   1" in out and ("STABLE" in out or "UNSTABLE" in out)
+    assert main(["plot", str(run_nc), "-o", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
+def test_cli_bad_input_exits_2_before_work(capsys):
+    assert main(["simulate", str(DEFAULT_SCENE), "--set", "contact.alpha=2"]) == 2
+    err = capsys.readouterr().err
+    assert "contact.alpha = 2.0" in err and "[0, 1]" in err
+    assert main(["fly", "no/such/scene.toml"]) == 2
+    assert "no such file" in capsys.readouterr().err
