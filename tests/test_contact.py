@@ -1,0 +1,206 @@
+"""Impact map at the rail corners: restitution, impulse-momentum balance, energy, wedging, friction.
+
+Every test runs over the contact-law registry and the four corners.  The
+maps are algebraic, so the tolerances are a few tens of machine epsilon of
+the quantities compared.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from solver.contact import (
+    CONTACT_LAWS,
+    ContactError,
+    corner_normal,
+    impact_map,
+    impulse_direction,
+    restitution_impact,
+    surface_slope,
+)
+from solver.dynamics import kinetic_energy, mass_matrix
+from solver.geometry import CORNERS, corner_is_front, corner_positions
+from solver.params import Contact, Models, Scene
+
+from conftest import EPS, SCENE1_ATTITUDE
+
+CORNER_INDICES = list(range(len(CORNERS)))
+
+
+def scene_with(law="restitution", **contact) -> Scene:
+    return Scene(models=Models(contact=law), contact=Contact(**contact))
+
+
+def approaching_velocities(rng, scene, corner, count=20):
+    """Random generalized velocities whose corner approaches the disk (U = -n.v > 0), scene-1 magnitudes."""
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    out = []
+    while len(out) < count:
+        v = rng.normal(0.0, [0.02, 10.0, 20.0])
+        if -n @ v > 1e-4:
+            out.append(v)
+    return out
+
+
+def velocity_scale(scene, corner, v):
+    """|n| |v| in m/s: the size of the terms that cancel in n . v."""
+    x1, x2 = corner_positions(scene.slider)[corner]
+    return float(np.abs(corner_normal(x1, x2)) @ np.abs(v))
+
+
+@pytest.mark.parametrize("law", sorted(CONTACT_LAWS))
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+@pytest.mark.parametrize("alpha", [0.0, 0.5, 0.85, 1.0])
+def test_frictionless_impact_reverses_normal_velocity_by_alpha(law, corner, alpha):
+    scene = scene_with(law, mu=0.0, alpha=alpha, wedging=False)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    rng = np.random.default_rng(corner)
+    for v in approaching_velocities(rng, scene, corner):
+        v_after, impulse = impact_map(SCENE1_ATTITUDE, v, corner, scene)
+        before, after = -n @ v, -n @ v_after
+        assert impulse > 0.0
+        assert abs(after + alpha * before) <= 16 * EPS * velocity_scale(scene, corner, v)
+
+
+@pytest.mark.parametrize("law", sorted(CONTACT_LAWS))
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+@pytest.mark.parametrize("mu", [0.0, 0.5, 1.5])
+def test_impulse_momentum_balance(law, corner, mu):
+    # M (v+ - v-) = q g with g = (1, -(x1 + e mu), -x2): normal impulse at the corner,
+    # friction mu q along the disk motion a lever e below the gimbal
+    scene = scene_with(law, mu=mu, alpha=0.8, wedging=True)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    g = impulse_direction(x1, x2, mu, scene.slider.friction_lever)
+    np.testing.assert_array_equal(g, [1.0, -(x1 + scene.slider.friction_lever * mu), -x2])
+    M = mass_matrix(scene.slider)
+    rng = np.random.default_rng(10 + corner)
+    for v in approaching_velocities(rng, scene, corner):
+        v_after, impulse = impact_map(SCENE1_ATTITUDE, v, corner, scene)
+        assert impulse > 0.0
+        momentum_change = M @ (v_after - v)
+        scale = np.abs(M) @ (np.abs(v_after) + np.abs(v))
+        assert np.all(np.abs(momentum_change - impulse * g) <= 16 * EPS * scale)
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+def test_velocity_jumps_match_the_source_coefficients(corner):
+    # the source's J, J1 (printed) and J2 = -x2/I2 (sign corrected, see solver.contact)
+    scene = scene_with(mu=0.5, alpha=0.8, wedging=False)
+    s = scene.slider
+    m, a, I1, I2, e, mu = s.mass, s.cg_offset, s.pitch_inertia, s.roll_inertia, s.friction_lever, 0.5
+    x1, x2 = corner_positions(s)[corner]
+    det = m * I1 - (m * a) ** 2
+    J = (I1 + m * a * (x1 + e * mu)) / det
+    J1 = -(m * a + m * (x1 + e * mu)) / det
+    J2 = -x2 / I2
+    v = approaching_velocities(np.random.default_rng(20 + corner), scene, corner, count=1)[0]
+    v_after, impulse = restitution_impact(SCENE1_ATTITUDE, v, corner, scene)
+    jump = (v_after - v) / impulse
+    np.testing.assert_allclose(jump, [J, J1, J2], rtol=64 * EPS)
+    U = -corner_normal(x1, x2) @ v
+    assert impulse == pytest.approx((1 + 0.8) * U / (J - x1 * J1 - x2 * J2), rel=64 * EPS)
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+def test_impact_pushes_the_corner_away(corner):
+    # physical sign check: whatever the friction (below the Painleve limit) and wedging,
+    # an approaching corner gets q > 0 and leaves the disk
+    for mu in (0.0, 0.3, 1.0, 2.0):
+        scene = scene_with(mu=mu, alpha=0.6, wedging=True)
+        x1, x2 = corner_positions(scene.slider)[corner]
+        n = corner_normal(x1, x2)
+        for v in approaching_velocities(np.random.default_rng(30 + corner), scene, corner):
+            v_after, impulse = impact_map(SCENE1_ATTITUDE, v, corner, scene)
+            assert impulse > 0.0
+            assert -n @ v_after < 0.0
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+def test_receding_corner_gets_no_impulse(corner):
+    scene = scene_with(mu=0.5, alpha=0.8, wedging=False)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    for v in approaching_velocities(np.random.default_rng(40 + corner), scene, corner):
+        v_after, impulse = impact_map(SCENE1_ATTITUDE, -v, corner, scene)
+        assert impulse == 0.0
+        np.testing.assert_array_equal(v_after, -v)
+        assert -n @ v_after < 0.0
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+@pytest.mark.parametrize("alpha", [1.0, 0.8, 0.3, 0.0])
+def test_frictionless_energy_loss(corner, alpha):
+    # mu = 0: the impulse acts along n, so dT = -(1 - alpha^2) U^2 / (2 G), G = n.M^-1 n;
+    # alpha = 1 conserves kinetic energy, alpha < 1 loses exactly that much
+    scene = scene_with(mu=0.0, alpha=alpha, wedging=False)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    G = n @ np.linalg.solve(mass_matrix(scene.slider), n)
+    for v in approaching_velocities(np.random.default_rng(50 + corner), scene, corner):
+        v_after, _ = impact_map(SCENE1_ATTITUDE, v, corner, scene)
+        before = kinetic_energy(scene.slider, v)
+        after = kinetic_energy(scene.slider, v_after)
+        U = -n @ v
+        expected_loss = (1.0 - alpha**2) * U**2 / (2.0 * G)
+        assert abs((before - after) - expected_loss) <= 64 * EPS * before
+        if alpha < 1.0:
+            assert after < before
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+def test_wedging_impulse_without_approach(corner):
+    # U = 0 but the asperity, moving at V, meets a surface inclined by eps: q = (1 + alpha) eps V / G
+    alpha, mu = 0.7, 0.4
+    scene = scene_with(mu=mu, alpha=alpha, wedging=True)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    g = impulse_direction(x1, x2, mu, scene.slider.friction_lever)
+    G = n @ np.linalg.solve(mass_matrix(scene.slider), g)
+    pitch = SCENE1_ATTITUDE[1]
+    eps = pitch + scene.slider.taper_angle if corner_is_front(scene.slider)[corner] else pitch
+    assert surface_slope(scene, corner, pitch) == eps
+    # a velocity with no normal component at this corner: pure roll about the corner's x1 axis line
+    v = np.array([x2 * 1.0, 0.0, 1.0])
+    assert abs(n @ v) <= 4 * EPS * abs(x2)
+    v_after, impulse = impact_map(SCENE1_ATTITUDE, v, corner, scene)
+    expected = (1.0 + alpha) * eps * scene.disk.speed / G
+    assert impulse > 0.0
+    assert impulse == pytest.approx(expected, rel=64 * EPS)
+    # restitution holds on the relative normal velocity U + eps V
+    wedge = eps * scene.disk.speed
+    assert -n @ v_after + wedge == pytest.approx(-alpha * wedge, rel=1e3 * EPS)
+    # no wedging, no disk speed or no inclination: nothing happens
+    for off in (
+        dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, wedging=False)),
+        dataclasses.replace(scene, disk=dataclasses.replace(scene.disk, speed=0.0)),
+    ):
+        assert impact_map(SCENE1_ATTITUDE, v, corner, off)[1] == 0.0
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+def test_friction_beyond_the_painleve_limit_raises(corner):
+    # G(mu) = n.M^-1 g(mu) is linear in mu; it reaches zero only at the front corners
+    # (friction lifts the nose there) -- beyond that the impact is indeterminate
+    base = scene_with(mu=0.0, alpha=0.8)
+    x1, x2 = corner_positions(base.slider)[corner]
+    n = corner_normal(x1, x2)
+    minv = np.linalg.inv(mass_matrix(base.slider))
+    e = base.slider.friction_lever
+    G0 = n @ minv @ impulse_direction(x1, x2, 0.0, e)
+    slope = n @ minv @ (impulse_direction(x1, x2, 1.0, e) - impulse_direction(x1, x2, 0.0, e))
+    assert G0 > 0.0
+    v = approaching_velocities(np.random.default_rng(60 + corner), base, corner, count=1)[0]
+    if corner_is_front(base.slider)[corner]:
+        assert slope < 0.0
+        limit = -G0 / slope
+        impact_map(SCENE1_ATTITUDE, v, corner, scene_with(mu=0.99 * limit, alpha=0.8))
+        with pytest.raises(ContactError, match=f"corner {CORNERS[corner]}"):
+            impact_map(SCENE1_ATTITUDE, v, corner, scene_with(mu=1.01 * limit, alpha=0.8))
+    else:
+        assert slope > 0.0
+        assert impact_map(SCENE1_ATTITUDE, v, corner, scene_with(mu=1e3, alpha=0.8))[1] > 0.0
