@@ -38,7 +38,8 @@ N_COMPARED = 3  # impulses compared between cases (later impacts of a chaotic se
 
 
 def _scene(base: Scene, nx: int, nt: int, ny: int, dt: float, t_end: float) -> Scene:
-    num = dataclasses.replace(base.numerics, nx=nx, nx_taper=nt, ny=ny, dt=dt, t_end=t_end)
+    interval = dt * max(1, round(base.numerics.output_interval / dt))
+    num = dataclasses.replace(base.numerics, nx=nx, nx_taper=nt, ny=ny, dt=dt, t_end=t_end, output_interval=interval)
     return dataclasses.replace(base, numerics=num)
 
 

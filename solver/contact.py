@@ -25,8 +25,8 @@ velocity is U + eps V (wedging).  Restitution reverses it:
     q = (1 + alpha) (U + eps V) / G,   G = n . M^-1 g = J - x1 J1 - x2 J2.
 
 G > 0 is required (otherwise friction would pull the corner into the disk,
-Painleve's paradox); for the source's slider that holds for mu < ~2.9 at the
-front corners and always at the rear ones.
+Painleve's paradox); for the source's slider that holds for mu < 5.71 at the
+front corners (the roll term x2^2/I2 included) and always at the rear ones.
 """
 
 from __future__ import annotations

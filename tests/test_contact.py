@@ -11,6 +11,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from conftest import EPS, SCENE1_ATTITUDE
 
 from solver.contact import (
     CONTACT_LAWS,
@@ -24,8 +25,6 @@ from solver.contact import (
 from solver.dynamics import kinetic_energy, mass_matrix
 from solver.geometry import CORNERS, corner_is_front, corner_positions
 from solver.params import Contact, Models, Scene
-
-from conftest import EPS, SCENE1_ATTITUDE
 
 CORNER_INDICES = list(range(len(CORNERS)))
 

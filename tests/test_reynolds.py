@@ -17,14 +17,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from conftest import EPS, SCENE1_ATTITUDE, inclined_slider_arrays, small_scene
 
 from solver.airbearing import SLIP_LAWS, make_air_bearing, steady_newton
-from solver.dynamics import mass_matrix
 from solver.grid import control_volume_widths
 from solver.kernels import reynolds as kr
-
-from conftest import EPS, SCENE1_ATTITUDE, inclined_slider_arrays
-
+from solver.params import Numerics
 
 # ---------------------------------------------------------------------------- helpers
 
@@ -456,10 +454,17 @@ def film1(scene1):
 def test_symmetric_slider_has_no_roll_moment(film1, scene1):
     load, _, roll_moment = film1.generalized_forces()
     assert load > 0.0
-    assert abs(roll_moment) <= 64 * EPS * load * scene1.slider.width
+    # both rails carry the same load to the steady tolerance: their roll moments cancel to that much
+    assert abs(roll_moment) <= force_noise(scene1) * scene1.slider.width / 2 + 64 * EPS * load * scene1.slider.width
     # the rails mirror each other across x2 = 0 to the steady solver's tolerance
     mirror = np.abs(film1.P[0, :, ::-1] - film1.P[1]).max()
     assert mirror <= scene1.numerics.steady_tol
+
+
+def force_noise(scene):
+    """Film force uncertainty [N] of a steady solve: P converged to steady_tol p0 over both rails."""
+    s = scene.slider
+    return scene.numerics.steady_tol * scene.air.ambient_pressure * 2.0 * s.rail_width * s.length
 
 
 def test_roll_moment_is_odd_in_roll(scene1):
@@ -470,27 +475,45 @@ def test_roll_moment_is_odd_in_roll(scene1):
         film.solve_steady(SCENE1_ATTITUDE + np.array([0.0, 0.0, sign * roll]))
         forces.append(film.generalized_forces())
     up, down = forces
-    # P is converged to steady_tol (1e-10 p0) per node: forces agree to that much of p0 * rail area
-    tol = 2 * scene1.numerics.steady_tol * scene1.air.ambient_pressure * film.area.sum() * film.length**2
-    assert abs(up[0] - down[0]) <= tol and abs(up[1] - down[1]) <= tol * film.length
-    assert abs(up[2] + down[2]) <= tol * scene1.slider.width
+    tol = 2.0 * force_noise(scene1)
+    assert abs(up[0] - down[0]) <= tol
+    assert abs(up[1] - down[1]) <= tol * scene1.slider.length
+    assert abs(up[2] + down[2]) <= tol * scene1.slider.width / 2
     # rolling the x2 < 0 side up unloads it: the film pushes roll back (negative moment)
     assert up[2] < 0.0
+
+
+def test_scene1_film_converges_at_second_order():
+    # refine the clustered grid by 2 in every direction (the tanh maps are smooth, the
+    # juncture stays on a node): load and pitch moment follow the scheme's order 2
+    forces = []
+    for level in range(3):
+        k = 2**level
+        numerics = Numerics(nx=60 * k + 1, nx_taper=10 * k + 1, ny=8 * k + 1)
+        film = make_air_bearing(small_scene(numerics=numerics))
+        film.solve_steady(SCENE1_ATTITUDE)
+        forces.append(film.generalized_forces()[:2])
+    forces = np.array(forces)
+    for column in forces.T:
+        order, _, _ = richardson(column, 2)
+        assert abs(order - 2.0) < 0.1, order
+
+
+STIFFNESS_STEPS = np.array([1e-10, 1e-8, 1e-8])  # 0.1 % of z and of the pitch [m, rad, rad]
 
 
 def stiffness_matrix(film, q0):
     """K = -d(film generalized forces)/dq at q0 by central differences (warm-started steady solves)."""
     P = film.solve_steady(q0).copy()
-    steps = np.array([1e-10, 1e-8, 1e-8])  # 0.1 % of z and of the pitch
     K = np.empty((3, 3))
-    for k in range(3):
+    for k, step in enumerate(STIFFNESS_STEPS):
         dq = np.zeros(3)
-        dq[k] = steps[k]
+        dq[k] = step
         film.solve_steady(q0 + dq, P)
         plus = film.generalized_forces()
         film.solve_steady(q0 - dq, P)
         minus = film.generalized_forces()
-        K[:, k] = -(plus - minus) / (2 * steps[k])
+        K[:, k] = -(plus - minus) / (2 * step)
     film.solve_steady(q0, P)
     return K
 
@@ -501,17 +524,18 @@ def test_steady_flight_is_statically_stable(scene1):
     # heave: pushing the slider down raises the film force; roll: restoring
     assert K[0, 0] > 0.0
     assert K[2, 2] > 0.0
-    # pitch about the gimbal is coupled to heave: with the heave in equilibrium
-    # (z follows, as it does on the much faster heave mode) the pitch stiffness is
-    # K11 - K10 K01 / K00.  (At fixed z, d(pitch moment)/d pitch alone is not
-    # restoring here: the gimbal sits 0.38 mm from the trailing edge.)
+    # Pitch about the gimbal is coupled to heave.  With the heave in equilibrium (z follows,
+    # as it does on the much faster heave mode) the pitch stiffness is K11 - K10 K01 / K00.
+    # (At fixed z, d(pitch moment)/d pitch alone is not restoring on this slider: the gimbal
+    # sits 0.38 mm from the trailing edge, so pitching up mostly squeezes the film behind it.)
     assert K[1, 1] - K[1, 0] * K[0, 1] / K[0, 0] > 0.0
-    eigenvalues = np.linalg.eigvals(K)
-    assert np.all(eigenvalues.real > 0.0)
-    # symmetric slider at zero roll: roll decouples from heave and pitch
-    assert abs(K[2, 0]) * film.length <= 1e-9 * K[0, 0] * film.length
-    assert abs(K[0, 2]) <= 1e-9 * K[0, 0] * film.length
-    assert np.all(np.isfinite(np.linalg.solve(mass_matrix(scene1.slider), K)))
+    assert np.all(np.linalg.eigvals(K).real > 0.0)
+    # symmetric slider at zero roll: roll decouples from heave and pitch, up to the
+    # finite-difference noise of the steady solves (force_noise / step)
+    noise = force_noise(scene1) / STIFFNESS_STEPS
+    half_width = scene1.slider.width / 2
+    assert abs(K[2, 0]) <= noise[0] * half_width and abs(K[2, 1]) <= noise[1] * half_width
+    assert abs(K[0, 2]) <= noise[2] and abs(K[1, 2]) <= noise[2] * scene1.slider.length
 
 
 @pytest.mark.parametrize("direction", [-1.0, 1.0])
@@ -549,7 +573,9 @@ def test_film_time_step_is_second_order(scene1):
 
     def path(t):
         phase = omega * t
-        return SCENE1_ATTITUDE + np.array([10e-9 * np.sin(phase), 2e-6 * np.sin(1.3 * phase), 3e-6 * np.sin(0.7 * phase)])
+        return SCENE1_ATTITUDE + np.array(
+            [10e-9 * np.sin(phase), 2e-6 * np.sin(1.3 * phase), 3e-6 * np.sin(0.7 * phase)]
+        )
 
     def forces_at_T(dt):
         film.P = P0.copy()
