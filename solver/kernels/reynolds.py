@@ -80,6 +80,19 @@ def bernoulli(x: float) -> tuple[float, float]:
 
 
 @njit
+def face_diffusion(hf: float, pf: float, kn1: float, kn2: float, second_order: bool) -> tuple[float, float]:
+    """Face coefficient D = H^3 P + c1 Kn H^2 + c2 Kn^2 H / P and dD/dP_node = (dD/dP_face) / 2."""
+    h2 = hf * hf
+    d = h2 * hf * pf + kn1 * h2
+    dd = 0.5 * h2 * hf
+    if second_order:
+        inv_pf = 1.0 / pf
+        d += kn2 * hf * inv_pf
+        dd -= 0.5 * kn2 * hf * inv_pf * inv_pf
+    return d, dd
+
+
+@njit
 def assemble(
     P: np.ndarray,
     H: np.ndarray,
@@ -124,14 +137,7 @@ def assemble(
                 hf = Hx[r, i, j]
                 pl = P[r, i, j]
                 pr = P[r, i + 1, j]
-                pf = 0.5 * (pl + pr)
-                h2 = hf * hf
-                d = h2 * hf * pf + kn1 * h2
-                dd = 0.5 * h2 * hf
-                if second_order:
-                    inv_pf = 1.0 / pf
-                    d += kn2 * hf * inv_pf
-                    dd -= 0.5 * kn2 * hf * inv_pf * inv_pf
+                d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
                 a = lam * hf
                 pe = a * dx[i] / d
                 b, db = bernoulli(pe)
@@ -161,14 +167,7 @@ def assemble(
                 hf = Hy[r, i, j]
                 pl = P[r, i, j]
                 pr = P[r, i, j + 1]
-                pf = 0.5 * (pl + pr)
-                h2 = hf * hf
-                d = h2 * hf * pf + kn1 * h2
-                dd = 0.5 * h2 * hf
-                if second_order:
-                    inv_pf = 1.0 / pf
-                    d += kn2 * hf * inv_pf
-                    dd -= 0.5 * kn2 * hf * inv_pf * inv_pf
+                d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
                 jump = pr - pl
                 flux = -d * jump * inv_dy
                 dfl = (d - jump * dd) * inv_dy
