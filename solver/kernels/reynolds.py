@@ -269,18 +269,9 @@ def fill_spacing(
     xf : (nx-1,) x-face positions; yf : (nr, ny-1); recess arrays [m] give
     the surface's depth below the flat (taper, etch) at nodes and faces.
     """
-    nr, nx, ny = H.shape
-    for r in range(nr):
-        for i in range(nx):
-            base = z - x[i] * pitch
-            for j in range(ny):
-                H[r, i, j] = (base - y[r, j] * roll + recess[r, i, j]) * inv_href
-            if i < nx - 1:
-                base_f = z - xf[i] * pitch
-                for j in range(ny):
-                    Hx[r, i, j] = (base_f - y[r, j] * roll + recess_xf[r, i, j]) * inv_href
-            for j in range(ny - 1):
-                Hy[r, i, j] = (base - yf[r, j] * roll + recess_yf[r, i, j]) * inv_href
+    fill_node_spacing(z, pitch, roll, x, y, recess, inv_href, H)
+    fill_node_spacing(z, pitch, roll, xf, y, recess_xf, inv_href, Hx)
+    fill_node_spacing(z, pitch, roll, x, yf, recess_yf, inv_href, Hy)
 
 
 @njit
@@ -294,7 +285,7 @@ def fill_node_spacing(
     inv_href: float,
     H: np.ndarray,
 ) -> None:
-    """Scaled spacing at the nodes only (see :func:`fill_spacing`)."""
+    """Scaled spacing on one tensor grid of points (nodes or faces), see :func:`fill_spacing`."""
     nr, nx, ny = H.shape
     for r in range(nr):
         for i in range(nx):
