@@ -1,4 +1,4 @@
-"""Command line: ``hdi fly | simulate | plot | bench | reproduce``.
+"""Command line: ``hdi fly | simulate | run | query | plot | bench | reproduce``.
 
 Every command validates its whole configuration before computing anything;
 errors name the key, the value and what is allowed, and exit with status 2.
@@ -11,6 +11,8 @@ import logging
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 from solver.params import ParameterError
 
@@ -139,7 +141,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from .store import open_result
 
     ds = open_result(args.file)
-    print(f"wrote {save_figure(plot_dataset(ds), args.output)}")
+    overlay = open_result(args.overlay) if args.overlay else None
+    print(f"wrote {save_figure(plot_dataset(ds, overlay), args.output)}")
     return 0
 
 
@@ -159,6 +162,103 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print()
         simulate_scene(scene, out / f"benson1989_mu05_alpha{tag}.nc", out / f"benson1989_mu05_alpha{tag}.png")
     print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+# Cost model for --dry-run when the ledger has no finished run of the study yet: film-step cost
+# per node and step measured by `hdi bench` on this machine (0.25-0.38 ms per step at 2 x 201 x 21 nodes).
+SECONDS_PER_NODE_STEP = 4.0e-8
+
+
+def _estimate(study, ledger, todo: int, workers: int) -> str:
+    import statistics
+
+    walls = []
+    for case in study.cases()[:50] if study.mode == "grid" else []:
+        record = ledger.finished(case.run_id)
+        if record is not None and record.get("wall_time") == record.get("wall_time"):
+            walls.append(record["wall_time"])
+    if walls:
+        per_run, basis = statistics.median(walls), f"median of {len(walls)} finished runs in the ledger"
+    else:
+        num = study.case((0,) * len(study.axes)).scene.numerics
+        nodes = 2 * num.nx * num.ny
+        per_run = num.t_end / num.dt * nodes * SECONDS_PER_NODE_STEP
+        basis = f"model: {nodes} nodes x {num.t_end / num.dt:.0f} steps x {SECONDS_PER_NODE_STEP:g} s"
+    total = todo * per_run
+    return (
+        f"~{per_run:.2f} s per run ({basis}); {todo} runs ~ {total:.0f} core-s, "
+        f"~{total / max(workers, 1) / 60:.1f} min on {workers} workers"
+    )
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    import os
+
+    from .fanout import default_ledger, default_output, run_study
+    from .ledger import Ledger
+    from .study import lattice, load_study
+
+    study = load_study(args.study, args.overrides, mode=args.mode)
+    output = args.output or default_output(study)
+    ledger_dir = args.ledger or default_ledger(study, output)
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    cases = study.cases() if study.mode == "grid" else []
+    if args.dry_run:
+        ledger = Ledger(ledger_dir)
+        print(f"study {study.name} ({study.path}), mode {study.mode}")
+        print("  axes: " + ", ".join(f"{a.dim} ({a.key}) x {len(a.values)}" for a in study.axes))
+        if study.mode == "grid":
+            done = sum(ledger.finished(c.run_id) is not None for c in cases)
+            print(f"  runs: {len(cases)}, already done: {done} (ledger {ledger.folder}), to run: {len(cases) - done}")
+            todo = len(cases) - done
+        else:
+            n = len(lattice(study))
+            lines = study.size // len(study.axis(study.boundary.axis).values)
+            cold = 2 + int(np.ceil(np.log2(max(n - 1, 1))))
+            print(f"  lines: {lines}, lattice of {n} values; at most {cold} runs per line, ~3 per continued line")
+            todo = cold + 3 * (lines - 1)
+        print("  estimate: " + _estimate(study, ledger, todo, workers))
+        print(f"  output: {output}")
+        return 0
+    print(f"study {study.name}: mode {study.mode}, " + " x ".join(f"{len(a.values)} {a.dim}" for a in study.axes)
+          + (f" = {len(cases)} runs" if cases else ""), flush=True)  # fmt: skip
+    out = run_study(
+        study,
+        output,
+        ledger_dir=ledger_dir,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        quiet=args.quiet,
+    )
+    ds = out.dataset
+    print(
+        f"\nstudy {study.name} finished: {out.computed} runs computed, {out.reused} taken from the ledger, "
+        f"{out.failed} failed; wall time {out.wall_time:.1f} s (run time {out.run_time:.1f} core-s)"
+    )
+    if "boundary_lower" in ds:
+        _print_boundary(ds)
+    print(f"wrote {output}")
+    if not args.no_plot:
+        from .figures import plot_dataset, save_figure
+
+        png = args.plot or Path(output).with_suffix(".png")
+        print(f"wrote {save_figure(plot_dataset(ds), png)}")
+    return 0
+
+
+def _print_boundary(ds) -> None:
+    from .query import boundary_table
+
+    print(f"boundary on {ds.attrs['boundary_axis']} ({ds.attrs['boundary_method']}), "
+          f"stable {ds.attrs['boundary_stable_side']}:")  # fmt: skip
+    print(boundary_table(ds))
+
+
+def cmd_query(args: argparse.Namespace) -> int:
+    from .query import query
+
+    print(query(args.file, args.where, args.var))
     return 0
 
 
@@ -188,8 +288,32 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("plot", help="draw the figure that fits a result file")
     p.add_argument("file", type=Path)
+    p.add_argument("--overlay", type=Path, help="a boundary study of the same axes, drawn over a grid study")
     p.add_argument("-o", "--output", type=Path, required=True, help="PNG file")
     p.set_defaults(func=cmd_plot)
+
+    p = sub.add_parser("run", help="run (or resume) a study: a grid of runs, or a traced boundary, on dask")
+    p.add_argument("study", help="study file (TOML), e.g. studies/fig17.toml")
+    p.add_argument("-o", "--output", type=Path, help="netCDF file (default results/NAME.nc, NAME_boundary.nc)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: in this process)")
+    where.add_argument("--scheduler", help="address of a running dask scheduler, e.g. tcp://127.0.0.1:8786")
+    p.add_argument("--mode", choices=("grid", "boundary"), help="override the study's mode")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a base-scene value for every run, e.g. --set numerics.nx=101")  # fmt: skip
+    p.add_argument("--ledger", type=Path, help="folder of per-run records (default OUTPUT_FOLDER/.ledger/NAME)")
+    p.add_argument("--dry-run", action="store_true", help="count runs and done runs, estimate the cost, run nothing")
+    p.add_argument("--plot", type=Path, help="PNG of the study (default: next to the netCDF)")
+    p.add_argument("--no-plot", action="store_true", help="do not draw the figure")
+    p.add_argument("-q", "--quiet", action="store_true", help="no line per finished run")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("query", help="print cells of a study dataset as a table")
+    p.add_argument("file", type=Path)
+    p.add_argument("--where", action="append", default=[], metavar="KEY=VALUE",
+                   help="axis (scene key or dimension) = value, e.g. --where contact.mu=0.5 (repeatable)")  # fmt: skip
+    p.add_argument("--var", action="append", default=None, help="variable to show (repeatable)")
+    p.set_defaults(func=cmd_query)
 
     p = sub.add_parser("bench", help="cost per step and per run against error, several grids")
     p.add_argument("--scene", default=str(DEFAULT_SCENE))

@@ -124,10 +124,99 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = 120) -> Path:
     return path
 
 
-def plot_dataset(ds: xr.Dataset) -> Figure:
+CELL_COLOURS = {"stable": "#9ecae1", "unstable": "#fdae6b", "failed": "0.55", "not run": "white"}
+
+
+def _edges(values: np.ndarray) -> np.ndarray:
+    """Cell edges around (possibly non-uniform) centres."""
+    v = np.asarray(values, dtype=float)
+    if v.size == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[2 * v[0] - mid[0]], mid, [2 * v[-1] - mid[-1]]])
+
+
+def _label(ds: xr.Dataset, dim: str) -> str:
+    units = ds[dim].attrs.get("units", "")
+    return f"{dim} [{units}]" if units and units != "1" else f"{dim} [-]"
+
+
+def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
+    """Figure 17 style: stable and unstable cells over two axes, the boundary, one panel per other value.
+
+    Horizontal: the first axis that is not the boundary axis (mu); vertical:
+    the boundary axis (alpha).  The boundary is drawn through the middle of
+    its bracket with the bracket shaded; ``overlay`` (a boundary-mode study of
+    the same axes) adds its bisection brackets as error bars.
+    """
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
+    if overlay is not None and overlay.attrs.get("boundary_method") != "bisection":
+        raise ValueError("the overlay must be a boundary-mode study (hdi run STUDY --mode boundary)")
+    plt = _pyplot()
+    dims = [str(d) for d in ds["stable"].dims]
+    ydim = ds.attrs.get("boundary_axis", dims[1] if len(dims) > 1 else dims[0])
+    xdim = next(d for d in dims if d != ydim)
+    pdims = [d for d in dims if d not in (xdim, ydim)]
+    panels = [dict(zip(pdims, combo, strict=True)) for combo in _product(ds, pdims)]
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.8), squeeze=False, constrained_layout=True)
+    # cell class: 0 stable, 1 unstable, 2 failed, 3 not run
+    cmap = ListedColormap([CELL_COLOURS[k] for k in ("stable", "unstable", "failed", "not run")])
+    for ax, sel in zip(axes[0], panels, strict=True):
+        cell = ds.sel(sel) if sel else ds
+        stable = cell["stable"].transpose(ydim, xdim).values
+        status = cell["status"].transpose(ydim, xdim).values
+        klass = np.where(stable == 1, 0, 1)
+        klass = np.where(status == -1, 2, klass)
+        klass = np.where(status == -2, 3, klass)
+        x, y = ds[xdim].values, ds[ydim].values
+        ax.pcolormesh(_edges(x), _edges(y), klass, cmap=cmap, vmin=-0.5, vmax=3.5, edgecolors="0.85", linewidth=0.3)
+        if "boundary_lower" in cell:
+            _draw_boundary(ax, x, cell, "k", "boundary (grid)" if cell.attrs.get("boundary_method") == "grid"
+                           else "boundary (bisection)")  # fmt: skip
+        if overlay is not None and "boundary_lower" in overlay:
+            osel = overlay.sel(sel) if sel else overlay
+            mid = 0.5 * (osel["boundary_lower"].values + osel["boundary_upper"].values)
+            half = 0.5 * (osel["boundary_upper"].values - osel["boundary_lower"].values)
+            runs = int(osel["boundary_runs"].sum())
+            ax.errorbar(overlay[xdim].values, mid, yerr=half, fmt="o", ms=3.5, color="tab:purple", capsize=3,
+                        lw=1.2, label=f"bisection bracket ({runs} runs)")  # fmt: skip
+        ran = int(np.count_nonzero(status != -2))
+        title = ", ".join(f"{d} = {v:g} {ds[d].attrs.get('units', '')}" for d, v in sel.items())
+        ax.set_title(f"{title}  ({ran} runs)" if title else f"{ran} runs", fontsize=10)
+        ax.set_xlabel(_label(ds, xdim))
+        ax.set_ylabel(_label(ds, ydim))
+        ax.set_xlim(_edges(x)[0], _edges(x)[-1])
+        ax.set_ylim(_edges(y)[0], _edges(y)[-1])
+    handles = [Patch(facecolor=CELL_COLOURS[k], edgecolor="0.6", label=k) for k in ("stable", "unstable")]
+    if np.any(ds["status"].values == -1):
+        handles.append(Patch(facecolor=CELL_COLOURS["failed"], edgecolor="0.6", label="failed"))
+    line_handles, _ = axes[0][0].get_legend_handles_labels()
+    axes[0][0].legend(handles=handles + line_handles, loc="lower left", fontsize=8, framealpha=0.9)
+    fig.suptitle(ds.attrs.get("title", ds.attrs.get("study", "")), fontsize=10)
+    return fig
+
+
+def _product(ds: xr.Dataset, dims: list[str]) -> list[tuple]:
+    import itertools
+
+    return list(itertools.product(*(ds[d].values.tolist() for d in dims)))
+
+
+def _draw_boundary(ax, x: np.ndarray, cell: xr.Dataset, colour: str, label: str) -> None:
+    lower = cell["boundary_lower"].values
+    upper = cell["boundary_upper"].values
+    ax.fill_between(x, lower, upper, color=colour, alpha=0.18, step=None, lw=0)
+    ax.plot(x, 0.5 * (lower + upper), color=colour, lw=1.6, marker=".", label=label)
+
+
+def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
     """The figure that fits a dataset written by this project."""
+    if "study" in ds.attrs and "stable" in ds and ds["stable"].ndim >= 2:
+        return plot_stability_map(ds, overlay)
     if "impact_time" in ds and "time" in ds.dims:
         return plot_run(ds)
     if "pressure" in ds:
         return plot_fly(ds)
-    raise ValueError("no figure fits this dataset (expected a run or a fly file)")
+    raise ValueError("no figure fits this dataset (expected a run, a fly file or a study over two axes)")

@@ -1,0 +1,80 @@
+"""``hdi query``: select cells of a study dataset and print them as a table.
+
+``--where`` takes a scene key or a dimension name with a value on its axis
+(``contact.mu=0.5`` or ``mu=0.5``; floats match to 1e-9 of the axis span);
+``--var`` chooses the variables.  The same selection in plain xarray:
+
+    ds = xarray.open_dataset("results/fig17.nc")
+    ds[["stable", "n_impacts"]].sel(mu=0.5, zdot0=-0.01).to_dataframe()
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from .config import ConfigError, parse_override
+from .store import open_result
+
+
+class QueryError(ConfigError):
+    """A selection that does not fit the dataset."""
+
+
+DEFAULT_VARS = ("stable", "status", "n_impacts", "n_larger_than_first", "n_front_corner_impacts",
+                "first_impulse", "max_impulse_ratio", "wall_time")  # fmt: skip
+
+
+def _dim_of(ds: xr.Dataset, key: str) -> str:
+    if key in ds.dims:
+        return key
+    for dim in ds.dims:
+        if ds[dim].attrs.get("scene_key") == key:
+            return str(dim)
+    axes = ", ".join(f"{d} ({ds[d].attrs.get('scene_key', '')})" for d in ds.dims if "scene_key" in ds[d].attrs)
+    raise QueryError(f"--where {key}: not an axis of this study (axes: {axes})")
+
+
+def select(ds: xr.Dataset, where: list[str]) -> xr.Dataset:
+    """Cells of ``ds`` matching every KEY=VALUE of ``where``."""
+    for item in where:
+        key, value = parse_override(item)
+        dim = _dim_of(ds, key)
+        coord = ds[dim].values
+        if coord.dtype.kind in "fiu":
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                raise QueryError(f"--where {item}: {dim} takes a number")
+            span = float(np.ptp(coord)) or 1.0
+            hit = np.flatnonzero(np.abs(coord - value) <= 1e-9 * span)
+        else:
+            hit = np.flatnonzero(coord == value)
+        if hit.size == 0:
+            raise QueryError(f"--where {item}: {value!r} is not on the {dim} axis (values: {coord.tolist()})")
+        ds = ds.isel({dim: hit})
+    return ds
+
+
+def table(ds: xr.Dataset, where: list[str], variables: list[str] | None = None) -> str:
+    """The selected cells as a text table, one row per cell."""
+    cells = select(ds, where)
+    names = variables or [v for v in DEFAULT_VARS if v in ds]
+    for name in names:
+        if name not in ds.data_vars:
+            raise QueryError(f"--var {name}: no such variable (variables: {', '.join(map(str, ds.data_vars))})")
+    frame = cells[names].to_dataframe()
+    frame = frame[[n for n in names if n in frame.columns]]
+    return frame.to_string()
+
+
+def query(path: str | Path, where: list[str], variables: list[str] | None = None) -> str:
+    ds = open_result(path)
+    if "study" not in ds.attrs:
+        raise QueryError(f"{path}: not a study dataset (written by 'hdi run')")
+    return table(ds, where, variables)
+
+
+def boundary_table(ds: xr.Dataset) -> str:
+    names = [n for n in ("boundary_lower", "boundary_upper", "boundary_runs", "boundary_monotonic") if n in ds]
+    return ds[names].to_dataframe()[names].to_string()

@@ -1,0 +1,399 @@
+"""Study files: a scene, axes over its keys, the outputs to keep, grid or boundary mode.
+
+A study file (TOML) holds
+
+    [study]    name, title, scene (path relative to the study file), mode = "grid" | "boundary"
+    [set]      scene values applied to every run (same keys as ``--set``)
+    [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
+               values = [...]  or  start, stop, step  (stop included)
+    [outputs]  variables (subset of RUN_VARIABLES), impacts (first impacts kept per run)
+    [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above"
+
+Everything is checked when the file is loaded, before any run: unknown
+sections or keys, an axis over a key the scene does not have, an empty or
+repeated axis, and every expanded scene's values (through the parameter
+dataclasses).  Each case of the grid is one complete, validated scene with a
+run id: a hash of all its parameters and the package version, which keys the
+ledger so that an interrupted study resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from solver.params import ParameterError, Scene, field_metadata, scene_from_dict
+
+from . import __version__
+from .config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml
+
+MODES = ("grid", "boundary")
+
+RUN_VARIABLES = (
+    "stable",
+    "status",
+    "message",
+    "n_impacts",
+    "n_larger_than_first",
+    "n_front_corner_impacts",
+    "first_impulse",
+    "max_impulse_ratio",
+    "first_impact_time",
+    "steps",
+    "newton_iterations",
+    "wall_time",
+)
+ALLOWED = {
+    "study": {"name", "title", "scene", "mode", "description"},
+    "set": None,  # any scene key, checked by apply_overrides
+    "axes": {"key", "dim", "values", "start", "stop", "step"},
+    "outputs": {"variables", "impacts"},
+    "boundary": {"axis", "tolerance", "stable_side"},
+}
+ROUND = 12  # decimals: axis values are rounded so that the same value always hashes the same
+
+
+@dataclass(frozen=True)
+class Axis:
+    key: str  # scene key, e.g. "contact.mu"
+    dim: str  # dataset dimension, e.g. "mu"
+    values: tuple[Any, ...]
+    units: str = ""
+    long_name: str = ""
+
+
+@dataclass(frozen=True)
+class Boundary:
+    axis: str  # scene key of the bisected axis
+    tolerance: float
+    stable_side: str = "below"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run of a study: its place on the grid and its complete scene."""
+
+    index: tuple[int, ...]
+    coords: dict[str, Any]  # dim -> value
+    overrides: dict[str, Any]  # scene key -> value
+    scene: Scene
+    run_id: str
+
+    @property
+    def scene_dict(self) -> dict[str, Any]:
+        return self.scene.to_dict()
+
+    def label(self) -> str:
+        return " ".join(f"{k}={_fmt(v)}" for k, v in self.coords.items())
+
+
+@dataclass(frozen=True)
+class Study:
+    name: str
+    title: str
+    path: Path
+    text: str  # the study file as written
+    scene_path: Path
+    scene_text: str
+    base: dict[str, Any]  # scene dict after the study's [set] and the command line's --set
+    axes: tuple[Axis, ...]
+    mode: str
+    variables: tuple[str, ...]
+    impacts_kept: int
+    boundary: Boundary | None
+    overrides: tuple[str, ...] = field(default=())
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        return tuple(a.dim for a in self.axes)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(a.values) for a in self.axes)
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def axis(self, key_or_dim: str) -> Axis:
+        for a in self.axes:
+            if key_or_dim in (a.key, a.dim):
+                return a
+        raise KeyError(key_or_dim)
+
+    def config_hash(self) -> str:
+        """Hash of everything that defines the study's runs (base scene, axes, outputs)."""
+        payload = {
+            "base": self.base,
+            "axes": [(a.key, a.dim, list(a.values)) for a in self.axes],
+            "variables": list(self.variables),
+            "impacts": self.impacts_kept,
+            "version": __version__,
+            "code": code_fingerprint(),
+        }
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:16]
+
+    def case(self, index: tuple[int, ...]) -> Case:
+        coords = {a.dim: a.values[i] for a, i in zip(self.axes, index, strict=True)}
+        overrides = {a.key: a.values[i] for a, i in zip(self.axes, index, strict=True)}
+        return make_case(self, index, coords, overrides)
+
+    def cases(self) -> list[Case]:
+        """Every case of the full grid, in C order of the axes (validated)."""
+        return [self.case(ix) for ix in itertools.product(*(range(n) for n in self.shape))]
+
+
+def make_case(study: Study, index: tuple[int, ...], coords: dict[str, Any], overrides: dict[str, Any]) -> Case:
+    data = apply_overrides(study.base, overrides, source=f"study {study.path}")
+    label = ", ".join(f"{k} = {v!r}" for k, v in overrides.items())
+    scene = scene_from_dict(data, source=f"{study.path} (case {label})")
+    return Case(index, coords, overrides, scene, run_id(scene))
+
+
+@functools.cache
+def code_fingerprint() -> str:
+    """Hash of the code a run executes (solver/ and the worker-side pipeline modules).
+
+    Part of every run id, so that a ledger never hands back a result computed
+    by other code: after any change to the numerics, every run is computed anew.
+    """
+    root = Path(__file__).resolve().parent.parent
+    files = sorted((root / "solver").rglob("*.py")) + [root / "pipeline" / n for n in ("runner.py", "classify.py")]
+    digest = hashlib.sha256()
+    for f in files:
+        digest.update(f.relative_to(root).as_posix().encode())
+        digest.update(f.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def run_id(scene: Scene) -> str:
+    """Hash of every scene parameter, the package version and the code: the ledger key of a run."""
+    payload = json.dumps({"scene": scene.to_dict(), "version": __version__, "code": code_fingerprint()}, sort_keys=True)
+    return hashlib.sha256(payload.encode()).hexdigest()[:20]
+
+
+def _fmt(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def axis_range(start: float, stop: float, step: float) -> tuple[float, ...]:
+    """start, start + step, ... up to stop included (within step/1000), rounded."""
+    n = int(math.floor((stop - start) / step * (1.0 + 1e-12) + 1e-3)) + 1
+    return tuple(float(round(start + i * step, ROUND)) for i in range(max(n, 0)))
+
+
+def _study_error(path: Path, where: str, reason: str) -> ConfigError:
+    return ConfigError(f"{path}: {where}: {reason}")
+
+
+def _check_keys(path: Path, where: str, table: dict[str, Any], allowed: set[str]) -> None:
+    for key in table:
+        if key not in allowed:
+            raise _study_error(path, where, f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
+
+
+def _parse_axis(path: Path, n: int, raw: Any) -> Axis:
+    where = f"[[axes]] #{n + 1}"
+    if not isinstance(raw, dict):
+        raise _study_error(path, where, "must be a table")
+    _check_keys(path, where, raw, ALLOWED["axes"])
+    key = raw.get("key")
+    if not isinstance(key, str):
+        raise _study_error(path, where, "needs key = 'SECTION.NAME' (a scene key such as 'contact.mu')")
+    where = f"axis {key!r}"
+    try:
+        meta = field_metadata(key)
+    except ParameterError as err:
+        raise _study_error(path, where, f"the scene has no such key ({err})") from None
+    dim = raw.get("dim", key.partition(".")[2])
+    if not isinstance(dim, str) or not dim.isidentifier():
+        raise _study_error(path, where, f"dim = {dim!r} must be a name such as 'mu'")
+    has_range = any(k in raw for k in ("start", "stop", "step"))
+    if "values" in raw and has_range:
+        raise _study_error(path, where, "give either values = [...] or start/stop/step, not both")
+    if "values" in raw:
+        values = raw["values"]
+        if not isinstance(values, list):
+            raise _study_error(path, where, f"values = {values!r} must be a list")
+        values = [float(round(v, ROUND)) if isinstance(v, float) else v for v in values]
+    elif has_range:
+        missing = [k for k in ("start", "stop", "step") if k not in raw]
+        if missing:
+            raise _study_error(path, where, f"a range needs start, stop and step (missing {', '.join(missing)})")
+        start, stop, step = (raw[k] for k in ("start", "stop", "step"))
+        if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in (start, stop, step)):
+            raise _study_error(path, where, "start, stop and step must be numbers")
+        if step <= 0:
+            raise _study_error(path, where, f"step = {step!r} must be > 0")
+        values = list(axis_range(float(start), float(stop), float(step)))
+    else:
+        raise _study_error(path, where, "needs values = [...] or start/stop/step")
+    if not values:
+        raise _study_error(path, where, "is empty (no values): an axis needs at least one value")
+    if len(set(values)) != len(values):
+        raise _study_error(path, where, f"repeats a value ({values})")
+    return Axis(key, dim, tuple(values), meta.get("units", ""), meta.get("long_name", ""))
+
+
+def load_study(
+    path: str | Path,
+    overrides: list[str] | None = None,
+    mode: str | None = None,
+) -> Study:
+    """Read and check a study file; ``overrides`` are ``--set KEY=VALUE`` for the base scene."""
+    path = Path(path)
+    data = read_toml(path)
+    if "study" not in data:
+        raise ConfigError(f"{path}: not a study file (no [study] table; a scene file is run with 'hdi simulate')")
+    for section in data:
+        if section not in ALLOWED:
+            raise _study_error(path, f"[{section}]", f"unknown section (allowed: {', '.join(ALLOWED)})")
+    head = data["study"]
+    _check_keys(path, "[study]", head, ALLOWED["study"])
+    name = head.get("name", path.stem)
+    if not isinstance(name, str) or not name or "/" in name:
+        raise _study_error(path, "[study] name", f"{name!r} must be a non-empty name without '/'")
+    if "scene" not in head:
+        raise _study_error(path, "[study]", "needs scene = 'path/to/scene.toml' (relative to the study file)")
+    scene_path = (path.parent / head["scene"]).resolve()
+    if not scene_path.is_file():
+        raise _study_error(path, "[study] scene", f"{head['scene']!r}: no such file ({scene_path})")
+    mode = mode or head.get("mode", "grid")
+    if mode not in MODES:
+        raise _study_error(path, "[study] mode", f"{mode!r} is not allowed (allowed: {', '.join(MODES)})")
+
+    scene_text = scene_path.read_text()
+    try:
+        scene_data = tomllib.loads(scene_text)
+    except tomllib.TOMLDecodeError as err:
+        raise _study_error(path, "scene", f"{scene_path} is not valid TOML ({err})") from None
+    fixed = data.get("set", {})
+    if not isinstance(fixed, dict):
+        raise _study_error(path, "[set]", "must be a table of scene keys")
+    base = apply_overrides(scene_data, _flatten(fixed), source=f"{path} [set]")
+    cli = list(overrides or [])
+    base = apply_overrides(base, cli, source="--set")
+    scene_from_dict(base, source=f"{scene_path} with the study's [set] and --set")
+
+    raw_axes = data.get("axes", [])
+    if not isinstance(raw_axes, list) or not raw_axes:
+        raise _study_error(path, "[[axes]]", "a study needs at least one axis")
+    axes = tuple(_parse_axis(path, n, raw) for n, raw in enumerate(raw_axes))
+    for attr in ("key", "dim"):
+        seen = [getattr(a, attr) for a in axes]
+        dup = {s for s in seen if seen.count(s) > 1}
+        if dup:
+            raise _study_error(path, "[[axes]]", f"{attr} {sorted(dup)} used by more than one axis")
+    for key in _flatten(fixed):
+        if key in {a.key for a in axes}:
+            raise _study_error(path, "[set]", f"{key!r} is also an axis")
+    for text in cli:
+        key = parse_override(text)[0]
+        if key in {a.key for a in axes}:
+            raise ConfigError(f"--set {text!r}: {key!r} is an axis of {path}; change the axis in the study file")
+
+    outputs = data.get("outputs", {})
+    _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
+    variables = outputs.get("variables", list(RUN_VARIABLES))
+    if not isinstance(variables, list):
+        raise _study_error(path, "[outputs] variables", "must be a list")
+    for v in variables:
+        if v not in RUN_VARIABLES:
+            allowed = ", ".join(RUN_VARIABLES)
+            raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
+    for needed in ("stable", "status"):
+        if needed not in variables:
+            variables = [needed, *variables]
+    impacts = outputs.get("impacts", 20)
+    if not isinstance(impacts, int) or isinstance(impacts, bool) or impacts < 0:
+        raise _study_error(path, "[outputs] impacts", f"{impacts!r} must be an integer >= 0")
+
+    boundary = None
+    if "boundary" in data:
+        b = data["boundary"]
+        _check_keys(path, "[boundary]", b, ALLOWED["boundary"])
+        axis_key = b.get("axis")
+        if axis_key not in {a.key for a in axes}:
+            raise _study_error(
+                path, "[boundary] axis", f"{axis_key!r} is not one of the axes ({', '.join(a.key for a in axes)})"
+            )
+        values = next(a.values for a in axes if a.key == axis_key)
+        if not all(isinstance(v, int | float) for v in values) or len(values) < 2:
+            raise _study_error(path, "[boundary] axis", f"{axis_key!r} needs at least two numeric values")
+        tol = b.get("tolerance")
+        if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 < tol <= max(values) - min(values):
+            raise _study_error(
+                path, "[boundary] tolerance", f"{tol!r} must be a number in (0, {max(values) - min(values):g}]"
+            )
+        side = b.get("stable_side", "below")
+        if side not in ("below", "above"):
+            raise _study_error(path, "[boundary] stable_side", f"{side!r} is not allowed (allowed: below, above)")
+        boundary = Boundary(axis_key, float(tol), side)
+    if mode == "boundary" and boundary is None:
+        raise _study_error(path, "mode = 'boundary'", "needs a [boundary] table (axis, tolerance)")
+
+    study = Study(
+        name=name,
+        title=head.get("title", name),
+        path=path.resolve(),
+        text=path.read_text(),
+        scene_path=scene_path,
+        scene_text=scene_text,
+        base=base,
+        axes=axes,
+        mode=mode,
+        variables=tuple(variables),
+        impacts_kept=impacts,
+        boundary=boundary,
+        overrides=tuple(cli),
+    )
+    # Every value of every axis must make a valid scene on its own: check each axis value
+    # against the base scene now, so that a bad value fails before any run.
+    for a in axes:
+        for v in a.values:
+            try:
+                scene_from_dict(apply_overrides(base, {a.key: v}, source=str(path)), source=str(path))
+            except ParameterError as err:
+                raise _study_error(path, f"axis {a.key!r}", f"value {v!r} is not allowed: {err}") from None
+    return study
+
+
+def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """{'contact': {'mu': 0.5}} or {'contact.mu': 0.5} -> {'contact.mu': 0.5}."""
+    out: dict[str, Any] = {}
+    for key, value in table.items():
+        full = f"{prefix}{key}"
+        if isinstance(value, dict):
+            out.update(_flatten(value, prefix=f"{full}."))
+        else:
+            out[full] = value
+    return out
+
+
+def lattice(study: Study) -> tuple[float, ...]:
+    """Values of the bisected axis: its range at the boundary tolerance (rounded like the grid's values)."""
+    assert study.boundary is not None
+    values = study.axis(study.boundary.axis).values
+    lo, hi = min(values), max(values)
+    return axis_range(float(lo), float(hi), study.boundary.tolerance)
+
+
+def study_attrs(study: Study) -> dict[str, str]:
+    """Provenance of a study: its file, the scene file, the command-line overrides, the config hash."""
+    return {
+        "study": study.name,
+        "study_file": str(study.path),
+        "study_toml": study.text,
+        "scene_file": str(study.scene_path),
+        "scene_toml": dump_toml(study.base),
+        "overrides": " ".join(study.overrides),
+        "config_hash": study.config_hash(),
+        "mode": study.mode,
+    }
