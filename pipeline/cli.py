@@ -20,6 +20,7 @@ from . import __version__
 
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "studies" / "scenes" / "benson1989.toml"
 RESULTS = Path(__file__).resolve().parent.parent / "results"
+FIG17_STUDY = Path(__file__).resolve().parent.parent / "studies" / "fig17.toml"
 
 
 def _add_scene_args(p: argparse.ArgumentParser) -> None:
@@ -147,8 +148,16 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    """The main job: scene 1 steady flight and the source's two contact sequences, into results/."""
+    """The main job, into results/: scene-1 steady flight, the source's two contact sequences, Figure 17.
+
+    Figure 17 runs as the full grid and as a traced boundary, each with its own
+    ledger so that both report their real cost; running reproduce again resumes
+    (or reuses) both from their ledgers.
+    """
     from .config import load_scene
+    from .fanout import run_study
+    from .figures import plot_dataset, save_figure
+    from .study import load_study
 
     out = Path(args.results)
     t0 = time.perf_counter()
@@ -161,6 +170,22 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         tag = alpha.replace(".", "")
         print()
         simulate_scene(scene, out / f"benson1989_mu05_alpha{tag}.nc", out / f"benson1989_mu05_alpha{tag}.png")
+    if not args.skip_studies:
+        outcomes = {}
+        for mode in ("grid", "boundary"):
+            study = load_study(FIG17_STUDY, mode=mode)
+            name = "fig17" if mode == "grid" else "fig17_boundary"
+            print(f"\nstudy {name}: {study.size if mode == 'grid' else 'bisection of'} runs on {args.workers or 'all'} "
+                  "local workers", flush=True)  # fmt: skip
+            outcomes[mode] = run_study(
+                study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers, quiet=args.quiet
+            )
+            o = outcomes[mode]
+            print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+                  f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+            _print_boundary(o.dataset)
+        fig = plot_dataset(outcomes["grid"].dataset, outcomes["boundary"].dataset)
+        print(f"wrote {save_figure(fig, out / 'fig17.png')}")
     print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -322,8 +347,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, help="netCDF file of the benchmark table")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("reproduce", help="the main job: scene-1 steady flight and contact runs into results/")
+    p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs and the Figure 17 studies into results/")
     p.add_argument("--results", default=str(RESULTS), help="output folder (default: results/)")
+    p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
+    p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
+    p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)
     return parser
 

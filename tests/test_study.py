@@ -414,3 +414,13 @@ def test_a_run_that_keeps_killing_workers_ends_as_a_recorded_failure(tmp_path):
     assert ds["status"].sel(alpha=1.0).item() == -1
     assert "KilledWorker" in str(ds["message"].sel(alpha=1.0).item())
     assert (ds["status"].sel(alpha=[0.5, 0.75]).values == 0).all()
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "studies").glob("*.toml")), ids=lambda p: p.name)
+def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
+    tiny = ["numerics.nx=21", "numerics.nx_taper=5", "numerics.ny=5", "numerics.t_end=2e-5"]
+    study = load_study(path, tiny)
+    out = run_study(study, tmp_path / f"{study.name}.nc", workers=0, quiet=True)
+    assert out.computed == study.size and out.failed == 0
+    ds = open_result(tmp_path / f"{study.name}.nc")
+    assert set(ds["stable"].dims) == set(study.dims) and (ds["status"].values >= 0).all()
