@@ -347,7 +347,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, help="netCDF file of the benchmark table")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs and the Figure 17 studies into results/")
+    p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs, Figure 17, into results/")
     p.add_argument("--results", default=str(RESULTS), help="output folder (default: results/)")
     p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
     p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
@@ -368,3 +368,7 @@ def main(argv: list[str] | None = None) -> int:
     except (FileNotFoundError, ValueError) as err:
         print(f"hdi: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("\nhdi: interrupted; finished runs are kept in the ledger: run the same command to resume",
+              file=sys.stderr)  # fmt: skip
+        return 130
