@@ -62,20 +62,20 @@ class GridPlanner:
     """Every case of the full grid."""
 
     def __init__(self, study: Study) -> None:
-        self._cases = study.cases()
+        self.cases = study.cases()
         self._given = False
 
     def propose(self) -> list[Case]:
         if self._given:
             return []
         self._given = True
-        return list(self._cases)
+        return list(self.cases)
 
     def record(self, case: Case, record: dict[str, Any]) -> None:
         pass
 
     def expected(self) -> int | None:
-        return len(self._cases)
+        return len(self.cases)
 
 
 class WarmUp(WorkerPlugin):
@@ -314,7 +314,10 @@ def run_study(
     ledger = Ledger(ledger_dir or default_ledger(study, output))
     planner: Any = BisectionPlanner(study) if study.mode == "boundary" else GridPlanner(study)
     n_workers = 1 if workers == 0 else (workers or os.cpu_count() or 1)
-    progress = Progress(planner.expected(), n_workers, quiet=quiet)
+    expected = planner.expected()
+    if isinstance(planner, GridPlanner):  # the progress counts the runs still to compute
+        expected = sum(ledger.finished(case.run_id) is None for case in planner.cases)
+    progress = Progress(expected, n_workers, quiet=quiet)
 
     def seen(case: Case, record: dict[str, Any]) -> None:
         progress(case, record)
