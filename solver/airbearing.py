@@ -121,14 +121,11 @@ class ReynoldsFilm:
         self.H = np.empty(shape)
         self.Hx = np.empty((nr, nx - 1, ny))
         self.Hy = np.empty((nr, nx, ny - 1))
-        self.H_old = np.empty(shape)
         self.H_mid = np.empty(shape)
         self.Hx_mid = np.empty((nr, nx - 1, ny))
         self.Hy_mid = np.empty((nr, nx, ny - 1))
-        self._R = np.zeros(shape)
-        self._J = tuple(np.zeros(shape) for _ in range(6))
+        self._Jy = tuple(np.zeros(shape) for _ in range(3))
         self._diag = np.empty(shape)
-        self._rhs = np.empty(shape)
         self._delta = np.empty(shape)
         self._work = np.empty(shape)
         self._P_mid = np.empty(shape)
@@ -142,8 +139,7 @@ class ReynoldsFilm:
             self.x, self.y_abs, self.xf, self.yf_abs, self.recess, self.recess_xf, self.recess_yf,
             1.0 / self.h_ref, self.dx, self.dy, self.dxc, self.dyc, self.area,
             self.lam, self.kn, self.c1, self.c2, self.sigma, n.newton_max_iter, n.newton_tol,
-            self._P_old, self._P_mid, self.H_old, self.H, self.H_mid, self.Hx_mid, self.Hy_mid,
-            self._R, *self._J, self._diag, self._rhs, self._delta, self._work,
+            self._P_old, self._P_mid, self.Hx_mid, self.Hy_mid, *self._Jy, self._diag, self._delta, self._work,
         )  # fmt: skip
 
     def force_args(self) -> tuple:
@@ -201,15 +197,12 @@ class ReynoldsFilm:
         Returns the number of Newton iterations taken.
         """
         n = self.scene.numerics
-        Jcx, Jxm, Jxp, Jcy, Jym, Jyp = self._J
         its = kr.film_step(
             self.P, np.asarray(q_old, dtype=float), np.asarray(q_new, dtype=float),
             self.x, self.y_abs, self.xf, self.yf_abs, self.recess, self.recess_xf, self.recess_yf,
             1.0 / self.h_ref, self.dx, self.dy, self.dxc, self.dyc, self.area,
             self.lam, self.kn, self.c1, self.c2, self.sigma / dt, n.newton_max_iter, n.newton_tol,
-            self._P_old, self._P_mid, self.H_old, self.H, self.H_mid, self.Hx_mid, self.Hy_mid,
-            self._R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp,
-            self._diag, self._rhs, self._delta, self._work,
+            self._P_old, self._P_mid, self.Hx_mid, self.Hy_mid, *self._Jy, self._diag, self._delta, self._work,
         )  # fmt: skip
         self.work.reynolds_solves += 1
         self.work.newton_iterations += its

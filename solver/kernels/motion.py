@@ -136,20 +136,12 @@ def verlet_step(
     tol: float,
     P_old: np.ndarray,
     P_mid: np.ndarray,
-    H_old: np.ndarray,
-    H_new: np.ndarray,
-    H_mid: np.ndarray,
     Hx: np.ndarray,
     Hy: np.ndarray,
-    R: np.ndarray,
-    Jcx: np.ndarray,
-    Jxm: np.ndarray,
-    Jxp: np.ndarray,
     Jcy: np.ndarray,
     Jym: np.ndarray,
     Jyp: np.ndarray,
     diag: np.ndarray,
-    rhs: np.ndarray,
     delta: np.ndarray,
     work: np.ndarray,
 ) -> int:
@@ -160,8 +152,7 @@ def verlet_step(
         q[k] += s * v[k]
     its = film_step(
         P, q_old, q, x, y, xf, yf, recess, recess_xf, recess_yf, inv_href, dx, dy, dxc, dyc, area,
-        lam, kn, c1, c2, sigma / s, max_iter, tol, P_old, P_mid, H_old, H_new, H_mid, Hx, Hy,
-        R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, diag, rhs, delta, work,
+        lam, kn, c1, c2, sigma / s, max_iter, tol, P_old, P_mid, Hx, Hy, Jcy, Jym, Jyp, diag, delta, work,
     )  # fmt: skip
     generalized_forces(P, area, x_scaled, y_scaled, force_scale, moment_scale, f_air)
     accelerations(f_air, q, suspension, minv, acc)

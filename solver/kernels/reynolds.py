@@ -60,15 +60,21 @@ _C2, _C4, _C6, _C8, _C10, _C12, _C14, _C16, _C18, _C20 = (
 
 
 @njit
+def bernoulli_series(x: float) -> tuple[float, float]:
+    """B(x) and B'(x) from the Taylor series above, for |x| < 1 (branch-free, so loops over it vectorize)."""
+    u = x * x
+    even = 1.0 + u * (_C2 + u * (_C4 + u * (_C6 + u * (_C8 + u * (_C10 + u * (_C12 + u * (
+        _C14 + u * (_C16 + u * (_C18 + u * _C20)))))))))  # fmt: skip
+    odd = 2.0 * _C2 + u * (4.0 * _C4 + u * (6.0 * _C6 + u * (8.0 * _C8 + u * (10.0 * _C10 + u * (
+        12.0 * _C12 + u * (14.0 * _C14 + u * (16.0 * _C16 + u * (18.0 * _C18 + u * 20.0 * _C20))))))))  # fmt: skip
+    return even - 0.5 * x, -0.5 + x * odd
+
+
+@njit
 def bernoulli(x: float) -> tuple[float, float]:
     """B(x) = x / (exp(x) - 1) and B'(x), for x >= 0 (series below 1, exp above)."""
     if x < 1.0:
-        u = x * x
-        even = 1.0 + u * (_C2 + u * (_C4 + u * (_C6 + u * (_C8 + u * (_C10 + u * (_C12 + u * (
-            _C14 + u * (_C16 + u * (_C18 + u * _C20)))))))))  # fmt: skip
-        odd = 2.0 * _C2 + u * (4.0 * _C4 + u * (6.0 * _C6 + u * (8.0 * _C8 + u * (10.0 * _C10 + u * (
-            12.0 * _C12 + u * (14.0 * _C14 + u * (16.0 * _C16 + u * (18.0 * _C18 + u * 20.0 * _C20))))))))  # fmt: skip
-        return even - 0.5 * x, -0.5 + x * odd
+        return bernoulli_series(x)
     if x > 700.0:
         return 0.0, 0.0
     em = math.exp(-x)
@@ -90,6 +96,108 @@ def face_diffusion(hf: float, pf: float, kn1: float, kn2: float, second_order: b
         d += kn2 * hf * inv_pf
         dd -= 0.5 * kn2 * hf * inv_pf * inv_pf
     return d, dd
+
+
+@njit
+def x_face_coefficients(
+    pl: float, pr: float, hf: float, inv_dx: float, lam: float, kn1: float, kn2: float, second_order: bool
+) -> tuple[float, float, float, float]:
+    """D and dD/dP_node at the mean face pressure, a = Lambda H_f and the cell Peclet number Pe = a dx / D."""
+    d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
+    a = lam * hf
+    return d, dd, a, a / (d * inv_dx)
+
+
+@njit
+def sg_flux(
+    pl: float, pr: float, d: float, dd: float, a: float, pe: float, b: float, db: float, inv_dx: float
+) -> tuple[float, float, float]:
+    """Scharfetter-Gummel flux F = g (P_L - P_R) + a P_L, g = (D / dx) B(Pe), and dF/dP_L, dF/dP_R.
+
+    b, db = B(Pe), B'(Pe); dg/dP_node = (B - Pe B') (dD/dP_node) / dx.
+    """
+    g = d * b * inv_dx
+    dg = (b - pe * db) * inv_dx * dd
+    jump = pl - pr
+    return g * jump + a * pl, g + a + jump * dg, -g + jump * dg
+
+
+@njit
+def x_face_fluxes(
+    P: np.ndarray,
+    Hx: np.ndarray,
+    dx: np.ndarray,
+    r: int,
+    lam: float,
+    kn1: float,
+    kn2: float,
+    second_order: bool,
+    xface: np.ndarray,
+) -> None:
+    """Scharfetter-Gummel fluxes on all x-faces (i+1/2, j) of rail r, the Dirichlet columns included.
+
+    xface : (4, (nx-1) ny), flat face index k = i ny + j: F, dF/dP_L,
+    dF/dP_R and 1/dx_i.  Face k lies between nodes k (P_L) and k + ny (P_R)
+    of the flattened rail.  One flat loop over the faces is long and
+    branch-free, so it vectorizes: B(Pe) comes from its series there, and
+    the rare faces with Pe >= 1 are then redone with the exponential form.
+    """
+    nx, ny = P.shape[1], P.shape[2]
+    nf = (nx - 1) * ny
+    flux, dfl, dfr, inv_dx = xface[0], xface[1], xface[2], xface[3]
+    for i in range(nx - 1):
+        inv = 1.0 / dx[i]
+        for j in range(ny):
+            inv_dx[i * ny + j] = inv
+    P_left = P[r].reshape(nx * ny)
+    P_right = P_left[ny:]  # a shifted view keeps every index a plain loop counter (no negative-index checks)
+    H_face = Hx[r].reshape(nf)
+    n_exp = 0  # an integer count keeps the loop vectorizable
+    for k in range(nf):
+        pl = P_left[k]
+        pr = P_right[k]
+        d, dd, a, pe = x_face_coefficients(pl, pr, H_face[k], inv_dx[k], lam, kn1, kn2, second_order)
+        n_exp += pe >= 1.0
+        b, db = bernoulli_series(pe)
+        flux[k], dfl[k], dfr[k] = sg_flux(pl, pr, d, dd, a, pe, b, db, inv_dx[k])
+    if n_exp == 0:
+        return
+    for k in range(nf):
+        pl = P_left[k]
+        pr = P_right[k]
+        d, dd, a, pe = x_face_coefficients(pl, pr, H_face[k], inv_dx[k], lam, kn1, kn2, second_order)
+        if pe >= 1.0:
+            b, db = bernoulli(pe)
+            flux[k], dfl[k], dfr[k] = sg_flux(pl, pr, d, dd, a, pe, b, db, inv_dx[k])
+
+
+@njit
+def y_face_flux(
+    pl: float, pr: float, hf: float, inv_dy: float, kn1: float, kn2: float, second_order: bool
+) -> tuple[float, float, float]:
+    """Diffusive y-face flux G = -D (P_R - P_L) / dy and dG/dP_L, dG/dP_R."""
+    d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
+    jump = pr - pl
+    return -d * jump * inv_dy, (d - jump * dd) * inv_dy, (-d - jump * dd) * inv_dy
+
+
+@njit
+def node_share(
+    f_plus: float,
+    f_minus: float,
+    dl_plus: float,
+    dl_minus: float,
+    dr_plus: float,
+    dr_minus: float,
+    width: float,
+) -> tuple[float, float, float, float]:
+    """A node's share of the two faces around it along one line (fluxes F, dF/dP_L, dF/dP_R; face width w).
+
+    Net outflow (F_+ - F_-) w and the node's tridiagonal Jacobian row along
+    the line: centre (dF_+/dP_L - dF_-/dP_R) w, lower -dF_-/dP_L w, upper
+    dF_+/dP_R w.
+    """
+    return (f_plus - f_minus) * width, (dl_plus - dr_minus) * width, -dl_minus * width, dr_plus * width
 
 
 @njit
@@ -125,61 +233,58 @@ def assemble(
     Outputs (nr, nx, ny) are overwritten at interior nodes only; their
     Dirichlet rows are never touched, so allocate them with zeros.  With
     ``y_flux=False`` Jcy, Jym, Jyp are not written either.
+
+    Per rail the x-face fluxes go into buffers (:func:`x_face_fluxes`),
+    per node row the y-face fluxes into a line buffer, and each interior
+    node takes its :func:`node_share` of both lines:
+    R = (F_{i+1/2} - F_{i-1/2}) dyc_j + (G_{j+1/2} - G_{j-1/2}) dxc_i.
     """
     nr, nx, ny = P.shape
     kn1 = c1 * kn
     kn2 = c2 * kn * kn
     second_order = kn2 != 0.0
+    xface = np.empty((4, (nx - 1) * ny))
+    flux, dfl, dfr = xface[0].reshape(nx - 1, ny), xface[1].reshape(nx - 1, ny), xface[2].reshape(nx - 1, ny)
+    yface = np.zeros((3, ny))  # G, dG/dP_L, dG/dP_R at j+1/2; stays zero without y fluxes
+    inv_dy = np.empty(ny)
+    for j in range(ny - 1):
+        inv_dy[j] = 1.0 / dy[j]
     for r in range(nr):
-        for i in range(nx - 1):
-            inv_dx = 1.0 / dx[i]
-            for j in range(1, ny - 1):
-                hf = Hx[r, i, j]
-                pl = P[r, i, j]
-                pr = P[r, i + 1, j]
-                d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
-                a = lam * hf
-                pe = a * dx[i] / d
-                b, db = bernoulli(pe)
-                g = d * b * inv_dx
-                dg = (b - pe * db) * inv_dx
-                jump = pl - pr
-                flux = g * jump + a * pl
-                dfl = g + a + jump * dg * dd
-                dfr = -g + jump * dg * dd
-                w = dyc[j]
-                # faces are visited in order, so a node's left face (which
-                # assigns) always comes before its right face (which adds)
-                if i > 0:
-                    R[r, i, j] += flux * w
-                    Jcx[r, i, j] += dfl * w
-                    Jxp[r, i, j] = dfr * w
-                if i + 1 < nx - 1:
-                    R[r, i + 1, j] = -flux * w
-                    Jxm[r, i + 1, j] = -dfl * w
-                    Jcx[r, i + 1, j] = -dfr * w
-        if not y_flux:
-            continue
+        x_face_fluxes(P, Hx, dx, r, lam, kn1, kn2, second_order, xface)
         for i in range(1, nx - 1):
+            if y_flux:
+                for j in range(ny - 1):
+                    yface[0, j], yface[1, j], yface[2, j] = y_face_flux(
+                        P[r, i, j], P[r, i, j + 1], Hy[r, i, j], inv_dy[j], kn1, kn2, second_order
+                    )
             w = dxc[i]
-            for j in range(ny - 1):
-                inv_dy = 1.0 / dy[j]
-                hf = Hy[r, i, j]
-                pl = P[r, i, j]
-                pr = P[r, i, j + 1]
-                d, dd = face_diffusion(hf, 0.5 * (pl + pr), kn1, kn2, second_order)
-                jump = pr - pl
-                flux = -d * jump * inv_dy
-                dfl = (d - jump * dd) * inv_dy
-                dfr = (-d - jump * dd) * inv_dy
-                if j > 0:
-                    R[r, i, j] += flux * w
-                    Jcy[r, i, j] += dfl * w
-                    Jyp[r, i, j] = dfr * w
-                if j + 1 < ny - 1:
-                    R[r, i, j + 1] -= flux * w
-                    Jym[r, i, j + 1] = -dfl * w
-                    Jcy[r, i, j + 1] = -dfr * w
+            for j in range(1, ny - 1):
+                rx, Jcx[r, i, j], Jxm[r, i, j], Jxp[r, i, j] = node_share(
+                    flux[i, j], flux[i - 1, j], dfl[i, j], dfl[i - 1, j], dfr[i, j], dfr[i - 1, j], dyc[j]
+                )
+                R[r, i, j] = rx + (yface[0, j] - yface[0, j - 1]) * w
+            if y_flux:
+                for j in range(1, ny - 1):
+                    _, Jcy[r, i, j], Jym[r, i, j], Jyp[r, i, j] = node_share(
+                        yface[0, j], yface[0, j - 1], yface[1, j], yface[1, j - 1], yface[2, j], yface[2, j - 1], w
+                    )
+
+
+@njit
+def eliminate(
+    lower: float, mid: float, upper: float, source: float, c_prev: float, d_prev: float
+) -> tuple[float, float]:
+    """One forward step of the Thomas algorithm on a tridiagonal line (l, m, u) with source s.
+
+    c_k = u_k / (m_k - l_k c_{k-1}),  d_k = (s_k - l_k d_{k-1}) / (m_k - l_k c_{k-1});
+    then x_last = d_last and x_k = d_k - c_k x_{k+1}.
+    """
+    inv = 1.0 / (mid - lower * c_prev)
+    return upper * inv, (source - lower * d_prev) * inv
+
+
+#: y-lines solved together by :func:`af_y_lines`: a tile of 16 lines fills the vector lanes and stays in L1.
+AF_TILE = 16
 
 
 @njit
@@ -202,48 +307,86 @@ def af_solve(
     (diag + weight Jy) delta = diag w along y-lines (Thomas algorithm), i.e.
     (diag + wJx) diag^-1 (diag + wJy) delta = rhs, which differs from the
     exact system by weight^2 Jx diag^-1 Jy delta.  Dirichlet nodes get
-    delta = 0.  diag must be > 0 at interior nodes.  work : (nr, nx, ny).
+    delta = 0.  diag must be > 0 at interior nodes.  work : (nr, nx, ny)
+    scratch.
+
+    The x-lines are eliminated together (:func:`eliminate`), j innermost
+    (contiguous), with c kept in ``delta`` and d in ``work``; then
+    :func:`af_y_lines` back-substitutes them and solves the y-lines.
     """
     nr, nx, ny = rhs.shape
-    cp = np.empty((nx, ny))
-    dp = np.empty((nx, ny))
-    delta[:] = 0.0
-    work[:] = 0.0
     for r in range(nr):
-        # x-lines, swept for all j at once (contiguous inner loop)
         for i in range(1, nx - 1):
+            first = i == 1  # no lower neighbour on the first row
             for j in range(1, ny - 1):
-                lower = weight * Jxm[r, i, j] if i > 1 else 0.0
-                upper = weight * Jxp[r, i, j] if i < nx - 2 else 0.0
-                inv = (
-                    1.0 / (diag[r, i, j] + weight * Jcx[r, i, j] - lower * cp[i - 1, j])
-                    if i > 1
-                    else 1.0 / (diag[r, i, j] + weight * Jcx[r, i, j])
+                lower = 0.0 if first else weight * Jxm[r, i, j]
+                c_prev = 0.0 if first else delta[r, i - 1, j]
+                d_prev = 0.0 if first else work[r, i - 1, j]
+                delta[r, i, j], work[r, i, j] = eliminate(
+                    lower, diag[r, i, j] + weight * Jcx[r, i, j], weight * Jxp[r, i, j], rhs[r, i, j], c_prev, d_prev
                 )
-                cp[i, j] = upper * inv
-                dp[i, j] = (rhs[r, i, j] - lower * dp[i - 1, j]) * inv if i > 1 else rhs[r, i, j] * inv
-        for j in range(1, ny - 1):
-            work[r, nx - 2, j] = dp[nx - 2, j]
-        for i in range(nx - 3, 0, -1):
+    af_y_lines(diag, Jcy, Jym, Jyp, weight, delta, work)
+
+
+@njit
+def af_y_lines(
+    diag: np.ndarray,
+    Jcy: np.ndarray,
+    Jym: np.ndarray,
+    Jyp: np.ndarray,
+    weight: float,
+    delta: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Second half of :func:`af_solve`: x-line back-substitution, then the y-lines.
+
+    On entry ``delta`` and ``work`` hold the forward elimination (c, d) of
+    the x-lines (diag + weight Jx) w = rhs at the interior nodes; on return
+    ``delta`` solves (diag + weight Jy) delta = diag w, zero on Dirichlet
+    nodes.  The back-substitution w_i = d_i - c_i w_{i+1} runs down the
+    rows in tiles of AF_TILE rows (the top tile takes the remainder); each
+    tile's lines go straight into (j, line) order, where its y-lines are
+    eliminated together, the lines innermost, and back-substituted before
+    delta is written back.
+    """
+    nr, nx, ny = diag.shape
+    lo = np.empty((ny, AF_TILE))
+    up = np.empty((ny, AF_TILE))
+    c = np.zeros((ny, AF_TILE))  # row 0 stays zero: no coupling below j = 1
+    d = np.zeros((ny, AF_TILE))
+    w_above = np.empty(ny)  # x-line solution w on the row above
+    for r in range(nr):
+        w_above[:] = 0.0  # so that w = d on the top row
+        i1 = nx - 1
+        nl = (nx - 3) % AF_TILE + 1
+        while i1 > 1:
+            i0 = i1 - nl
+            for k in range(nl - 1, -1, -1):
+                i = i0 + k
+                for j in range(1, ny - 1):
+                    w = work[r, i, j] - delta[r, i, j] * w_above[j]
+                    w_above[j] = w
+                    lo[j, k] = weight * Jym[r, i, j]
+                    up[j, k] = weight * Jyp[r, i, j]
+                    c[j, k] = diag[r, i, j] + weight * Jcy[r, i, j]  # m, until c replaces it
+                    d[j, k] = diag[r, i, j] * w  # s, until d replaces it
             for j in range(1, ny - 1):
-                work[r, i, j] = dp[i, j] - cp[i, j] * work[r, i + 1, j]
-        for i in range(1, nx - 1):
-            for j in range(1, ny - 1):
-                lower = weight * Jym[r, i, j] if j > 1 else 0.0
-                upper = weight * Jyp[r, i, j] if j < ny - 2 else 0.0
-                mid = diag[r, i, j] + weight * Jcy[r, i, j]
-                source = diag[r, i, j] * work[r, i, j]
-                if j > 1:
-                    inv = 1.0 / (mid - lower * cp[0, j - 1])
-                    cp[0, j] = upper * inv
-                    dp[0, j] = (source - lower * dp[0, j - 1]) * inv
-                else:
-                    inv = 1.0 / mid
-                    cp[0, j] = upper * inv
-                    dp[0, j] = source * inv
-            delta[r, i, ny - 2] = dp[0, ny - 2]
+                for k in range(nl):
+                    c[j, k], d[j, k] = eliminate(lo[j, k], c[j, k], up[j, k], d[j, k], c[j - 1, k], d[j - 1, k])
             for j in range(ny - 3, 0, -1):
-                delta[r, i, j] = dp[0, j] - cp[0, j] * delta[r, i, j + 1]
+                for k in range(nl):
+                    d[j, k] -= c[j, k] * d[j + 1, k]
+            for k in range(nl):
+                for j in range(1, ny - 1):
+                    delta[r, i0 + k, j] = d[j, k]
+            i1 = i0
+            nl = AF_TILE
+        for j in range(ny):
+            delta[r, 0, j] = 0.0
+            delta[r, nx - 1, j] = 0.0
+        for i in range(1, nx - 1):
+            delta[r, i, 0] = 0.0
+            delta[r, i, ny - 1] = 0.0
 
 
 @njit
@@ -299,6 +442,8 @@ def load_moments(P: np.ndarray, area: np.ndarray, x: np.ndarray, y: np.ndarray) 
     """Integrals of (P - 1) dA, x (P - 1) dA and y (P - 1) dA (midpoint rule on control volumes).
 
     P : (nr, nx, ny); area : (nx, ny) control-volume areas; x : (nx,); y : (nr, ny).
+    Summed row by row: with s_i = sum_j (P - 1) dA and t_i = sum_j y_j (P - 1) dA,
+    the integrals are sum_i s_i, sum_i x_i s_i and sum_i t_i.
     """
     nr, nx, ny = P.shape
     q = 0.0
@@ -306,46 +451,16 @@ def load_moments(P: np.ndarray, area: np.ndarray, x: np.ndarray, y: np.ndarray) 
     qy = 0.0
     for r in range(nr):
         for i in range(nx):
+            s = 0.0
+            t = 0.0
             for j in range(ny):
                 dq = (P[r, i, j] - 1.0) * area[i, j]
-                q += dq
-                qx += x[i] * dq
-                qy += y[r, j] * dq
+                s += dq
+                t += y[r, j] * dq
+            q += s
+            qx += x[i] * s
+            qy += t
     return q, qx, qy
-
-
-@njit
-def midpoint_rhs(
-    P_iter: np.ndarray,
-    P_old: np.ndarray,
-    H_new: np.ndarray,
-    H_old: np.ndarray,
-    area: np.ndarray,
-    ct: float,
-    R: np.ndarray,
-    diag: np.ndarray,
-    rhs: np.ndarray,
-) -> float:
-    """Newton right-hand side of the implicit-midpoint film step.
-
-    Residual  ct A (P H_new - P_old H_old) + R((P_old + P) / 2; H_mid)  with R
-    already evaluated at the midpoint; diag = ct A H_new.  Returns the max
-    of |rhs| / diag, a pressure change in units of p0.
-    """
-    nr, nx, ny = P_iter.shape
-    worst = 0.0
-    for r in range(nr):
-        for i in range(1, nx - 1):
-            for j in range(1, ny - 1):
-                ca = ct * area[i, j]
-                dg = ca * H_new[r, i, j]
-                diag[r, i, j] = dg
-                res = ca * (P_iter[r, i, j] * H_new[r, i, j] - P_old[r, i, j] * H_old[r, i, j]) + R[r, i, j]
-                rhs[r, i, j] = -res
-                scaled = abs(res) / dg
-                if scaled > worst:
-                    worst = scaled
-    return worst
 
 
 @njit
@@ -375,70 +490,102 @@ def film_step(
     tol: float,
     P_old: np.ndarray,
     P_mid: np.ndarray,
-    H_old: np.ndarray,
-    H_new: np.ndarray,
-    H_mid: np.ndarray,
     Hx: np.ndarray,
     Hy: np.ndarray,
-    R: np.ndarray,
-    Jcx: np.ndarray,
-    Jxm: np.ndarray,
-    Jxp: np.ndarray,
     Jcy: np.ndarray,
     Jym: np.ndarray,
     Jyp: np.ndarray,
     diag: np.ndarray,
-    rhs: np.ndarray,
     delta: np.ndarray,
     work: np.ndarray,
 ) -> int:
     """One implicit-midpoint film step in place on P; returns the Newton iterations.
 
     The attitude moves linearly from q_old to q_new over the step, so the
-    midpoint spacing is the spacing at (q_old + q_new) / 2.  Iteration k
-    solves (ct A H' + J(P_mid)/2) delta = -residual by approximate
-    factorisation; the first iterate linearises about the old pressure.
+    face spacings are those at (q_old + q_new) / 2; the node spacings H, H'
+    at q_old, q_new are computed on the fly (as :func:`fill_node_spacing`
+    would).  Iteration k solves
+
+        (ct A H' + J(P_lin)/2) delta = -[ct A (P H' - P_n H) + R(P_lin)]
+
+    by approximate factorisation, with P_lin = P_n (the old pressure) on
+    the first iterate and (P_n + P) / 2 after it; later iterates stop once
+    max |rhs| / (ct A H') < tol.  This is :func:`assemble` followed by
+    :func:`af_solve`, fused: each node's residual and x-line Jacobian row go
+    straight into the forward elimination of its x-line, so R, Jx and the
+    right-hand side are never stored; only the y-line data (diag = ct A H',
+    Jy) and the elimination (c, d) are, for :func:`af_y_lines`.  P holds
+    P_n until the first update; P_old keeps a copy when later iterates
+    need it.
     """
-    fill_node_spacing(q_old[0], q_old[1], q_old[2], x, y, recess, inv_href, H_old)
-    fill_node_spacing(q_new[0], q_new[1], q_new[2], x, y, recess, inv_href, H_new)
-    fill_spacing(0.5 * (q_old[0] + q_new[0]), 0.5 * (q_old[1] + q_new[1]), 0.5 * (q_old[2] + q_new[2]),
-                 x, y, xf, yf, recess, recess_xf, recess_yf, inv_href, H_mid, Hx, Hy)  # fmt: skip
-    P_old[:] = P
+    weight = 0.5
+    z_mid, pitch_mid, roll_mid = 0.5 * (q_old[0] + q_new[0]), 0.5 * (q_old[1] + q_new[1]), 0.5 * (q_old[2] + q_new[2])
+    fill_node_spacing(z_mid, pitch_mid, roll_mid, xf, y, recess_xf, inv_href, Hx)
+    fill_node_spacing(z_mid, pitch_mid, roll_mid, x, yf, recess_yf, inv_href, Hy)
+    z0, pitch0, roll0 = q_old[0], q_old[1], q_old[2]
+    z1, pitch1, roll1 = q_new[0], q_new[1], q_new[2]
+    nr, nx, ny = P.shape
+    kn1 = c1 * kn
+    kn2 = c2 * kn * kn
+    second_order = kn2 != 0.0
+    xface = np.empty((4, (nx - 1) * ny))
+    flux, dfl, dfr = xface[0].reshape(nx - 1, ny), xface[1].reshape(nx - 1, ny), xface[2].reshape(nx - 1, ny)
+    yface = np.zeros((3, ny))  # G, dG/dP_L, dG/dP_R at j+1/2
+    residual = np.empty(ny)
+    inv_dy = np.empty(ny)
+    for j in range(ny - 1):
+        inv_dy[j] = 1.0 / dy[j]
     its = 0
     for k in range(max_iter):
         if k == 0:
-            P_lin = P_old
+            P_n = P
+            P_lin = P
         else:
-            for idx in range(P.size):
-                P_mid.flat[idx] = 0.5 * (P_old.flat[idx] + P.flat[idx])
+            P_n = P_old
+            P_mid[:] = P_old
+            P_mid += P
+            P_mid *= 0.5
             P_lin = P_mid
-        assemble(
-            P_lin,
-            H_mid,
-            Hx,
-            Hy,
-            dx,
-            dy,
-            dxc,
-            dyc,
-            lam,
-            kn,
-            c1,
-            c2,
-            R,
-            Jcx,
-            Jxm,
-            Jxp,
-            Jcy,
-            Jym,
-            Jyp,
-            True,
-        )
-        worst = midpoint_rhs(P, P_old, H_new, H_old, area, ct, R, diag, rhs)
+        worst = 0.0
+        for r in range(nr):
+            x_face_fluxes(P_lin, Hx, dx, r, lam, kn1, kn2, second_order, xface)
+            for i in range(1, nx - 1):
+                for j in range(ny - 1):
+                    yface[0, j], yface[1, j], yface[2, j] = y_face_flux(
+                        P_lin[r, i, j], P_lin[r, i, j + 1], Hy[r, i, j], inv_dy[j], kn1, kn2, second_order
+                    )
+                w = dxc[i]
+                base0 = z0 - x[i] * pitch0
+                base1 = z1 - x[i] * pitch1
+                first = i == 1  # no lower neighbour on the first row
+                for j in range(1, ny - 1):
+                    rx, jcx, jxm, jxp = node_share(
+                        flux[i, j], flux[i - 1, j], dfl[i, j], dfl[i - 1, j], dfr[i, j], dfr[i - 1, j], dyc[j]
+                    )
+                    ry, Jcy[r, i, j], Jym[r, i, j], Jyp[r, i, j] = node_share(
+                        yface[0, j], yface[0, j - 1], yface[1, j], yface[1, j - 1], yface[2, j], yface[2, j - 1], w
+                    )
+                    h_old = (base0 - y[r, j] * roll0 + recess[r, i, j]) * inv_href
+                    h_new = (base1 - y[r, j] * roll1 + recess[r, i, j]) * inv_href
+                    ca = ct * area[i, j]
+                    dg = ca * h_new
+                    diag[r, i, j] = dg
+                    res = ca * (P[r, i, j] * h_new - P_n[r, i, j] * h_old) + (rx + ry)
+                    residual[j] = res
+                    lower = 0.0 if first else weight * jxm
+                    c_prev = 0.0 if first else delta[r, i - 1, j]
+                    d_prev = 0.0 if first else work[r, i - 1, j]
+                    delta[r, i, j], work[r, i, j] = eliminate(
+                        lower, dg + weight * jcx, weight * jxp, -res, c_prev, d_prev
+                    )
+                if k > 0:
+                    for j in range(1, ny - 1):
+                        worst = max(worst, abs(residual[j]) / diag[r, i, j])
         if k > 0 and worst < tol:
             break
-        af_solve(diag, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, rhs, 0.5, delta, work)
-        for idx in range(P.size):
-            P.flat[idx] += delta.flat[idx]
+        af_y_lines(diag, Jcy, Jym, Jyp, weight, delta, work)
+        if k == 0 and max_iter > 1:
+            P_old[:] = P
+        P += delta
         its += 1
     return its
