@@ -48,7 +48,7 @@ def kernel_calls(package: str) -> dict[str, Callable[[], object]]:
     steady_mod = importlib.import_module(f"{package}.steady")
     scene = load_scene(DEFAULT_SCENE, OVERRIDES)
     steady = steady_mod.fly(scene)
-    film = airbearing.make_air_bearing(scene)
+    film = airbearing.make_film(scene)
     P0 = steady.pressure / scene.air.ambient_pressure
     q_old = steady.q.copy()
     q_new = q_old + np.array([-0.01, 5.0, 10.0]) * scene.numerics.dt

@@ -14,7 +14,7 @@ import numpy as np
 
 from pipeline.cli import DEFAULT_SCENE
 from pipeline.config import load_scene
-from solver.airbearing import make_air_bearing
+from solver.airbearing import make_film
 from solver.steady import fly
 
 C0_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)
@@ -27,7 +27,7 @@ def main() -> None:
     for slip in ("first_order", "continuum", "second_order"):
         for c0 in C0_MM:
             scene = load_scene(DEFAULT_SCENE, [f"slider.taper_length={c0 * 1e-3}", f"models.slip={slip}"])
-            film = make_air_bearing(scene)
+            film = make_film(scene)
             film.solve_steady(q)
             f = film.generalized_forces()
             print(f"{slip:13s} {c0:8.2f} {f[0]:9.5f} {-f[1] / f[0] * 1e3:12.4f} {-f[1]:20.4e}")

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import xarray as xr
 
-from solver.airbearing import make_air_bearing
+from solver.airbearing import make_film
 from solver.integrate import simulate
 from solver.kernels import reynolds as kr
 from solver.params import Numerics, Scene
@@ -45,7 +45,7 @@ def _scene(base: Scene, nx: int, nt: int, ny: int, dt: float, t_end: float) -> S
 
 def sparse_direct_step_cost(scene: Scene, n_steps: int = 10) -> float:
     """Median seconds per step of the baseline: exact-Jacobian midpoint step, scipy sparse direct solve."""
-    film = make_air_bearing(scene)
+    film = make_film(scene)
     steady = fly(scene, film=film)
     q_old = steady.q
     q_new = steady.q + np.array([-1e-9, 5e-7, 1e-6])

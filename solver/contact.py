@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import nnls
 
 from .dynamics import mass_matrix
 from .geometry import CORNERS, corner_is_front, corner_positions
@@ -111,3 +112,126 @@ CONTACT_LAWS = {"restitution": restitution_impact}
 def impact_map(q: np.ndarray, v: np.ndarray, corner: int, scene: Scene, minv: np.ndarray | None = None):
     """The contact law named by ``scene.models.contact``: (v_after, impulse)."""
     return CONTACT_LAWS[scene.models.contact](q, v, corner, scene, minv)
+
+
+class SustainedContact:
+    """The chattering rule: corners held on the asperities instead of an unbounded train of impacts.
+
+    A corner whose restitution rebound would leave it slower than
+    ``contact.rest_velocity`` (its spacing rate after the impact) while the
+    other forces press it onto the asperities (its spacing acceleration is
+    negative) would bounce again after a time that shrinks geometrically
+    with alpha: infinitely many impacts in finite time.  Instead the impact
+    is made plastic (the corner's normal velocity becomes zero; no wedging,
+    the corner does not leave the asperity tips) and the corner is *held*:
+    its spacing stays at h0 under a normal contact force lambda >= 0 with
+    the Coulomb friction mu lambda at the disk surface (generalized
+    direction g as for an impulse).  For the held set H the forces solve
+
+        n_h . (a_free + sum_k M^-1 g_k lambda_k) = 0,   h in H,
+
+    and a corner is released when its lambda would be negative (the film
+    lifts it).  With rest_velocity = 0 the rule is off.
+    """
+
+    def __init__(self, scene: Scene, normals: np.ndarray, minv: np.ndarray, h0: float) -> None:
+        self.v_rest = scene.contact.rest_velocity
+        self.normals = normals
+        self.h0 = h0
+        mu, e = scene.contact.mu, scene.slider.friction_lever
+        self.response = np.array([minv @ impulse_direction(x1, x2, mu, e) for x1, x2 in corner_positions(scene.slider)])
+        self.held = np.zeros(len(normals), dtype=bool)
+        self.lam = np.zeros(len(normals))
+        self.since = np.zeros(len(normals))
+        self.intervals: list[tuple[float, float, int]] = []
+
+    @property
+    def free(self) -> np.ndarray:
+        return ~self.held
+
+    @property
+    def any_held(self) -> bool:
+        return bool(self.held.any())
+
+    def _multipliers(self, rates: np.ndarray, t: float, release_floor: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Non-negative multipliers x on the held corners so that none of them approaches.
+
+        Minimises |n_h . (rate + sum_k r_k x_k)| over x >= 0 (NNLS: four corners
+        of a rigid plane are dependent, and a corner whose rate stays positive
+        with x = 0 is released).  Returns (held indices, x).
+        """
+        idx = np.flatnonzero(self.held)
+        A = self.normals[idx] @ self.response[idx].T
+        b = rates[idx]
+        x, _ = nnls(A, -b)
+        after = A @ x + b
+        scale = float(np.abs(rates).max()) + 1e-300
+        if after.min() < -1e-6 * scale:
+            raise ContactError(f"held corners {idx.tolist()} cannot be kept on the asperities (rates {after.tolist()})")
+        for k in np.flatnonzero(after > 1e-9 * scale + release_floor):
+            self._release(int(idx[k]), t)
+        return idx, x
+
+    def _correction(self, residual: np.ndarray) -> np.ndarray:
+        """Least-norm generalized correction that zeroes ``residual`` on the held corners."""
+        idx = np.flatnonzero(self.held)
+        A = self.normals[idx] @ self.response[idx].T
+        x = np.linalg.lstsq(A, -residual[idx], rcond=1e-12)[0]
+        return self.response[idx].T @ x
+
+    def should_hold(self, corner: int, v_after: np.ndarray, acc: np.ndarray) -> bool:
+        if self.v_rest <= 0.0:
+            return False
+        n = self.normals[corner]
+        return float(n @ v_after) < self.v_rest and float(n @ acc) < 0.0
+
+    def hold(self, corner: int, v: np.ndarray, t: float) -> tuple[np.ndarray, float]:
+        """Plastic impact at ``corner`` (its normal velocity to zero); it joins the held set.  (v_after, impulse)."""
+        n, r = self.normals[corner], self.response[corner]
+        impulse = -float(n @ v) / float(n @ r)
+        v = v + r * impulse
+        self.held[corner] = True
+        self.since[corner] = t
+        return self.project_velocity(v, t), impulse
+
+    def _release(self, corner: int, t: float) -> None:
+        self.held[corner] = False
+        self.lam[corner] = 0.0
+        self.intervals.append((float(self.since[corner]), float(t), int(corner)))
+
+    def project_velocity(self, v: np.ndarray, t: float) -> np.ndarray:
+        """Stop the held corners approaching (releasing those that separate)."""
+        if not self.any_held:
+            return v
+        idx, x = self._multipliers(self.normals @ v, t, 1e-6 * self.v_rest)
+        return v + self.response[idx].T @ x
+
+    def apply_forces(self, acc: np.ndarray, t: float = 0.0) -> None:
+        """Add the held corners' contact forces to the free acceleration ``acc`` (in place)."""
+        self.lam[:] = 0.0
+        if not self.any_held:
+            return
+        idx, x = self._multipliers(self.normals @ acc, t)
+        self.lam[idx] = x
+        acc += self.response[idx].T @ x
+
+    def constrain(self, s: float, t: float, q: np.ndarray, v: np.ndarray, acc: np.ndarray) -> None:
+        """After a step ending at t: contact forces into the closing half kick, then back onto the constraints."""
+        before = acc.copy()
+        self.apply_forces(acc, t)
+        v += 0.5 * s * (acc - before)
+        if self.any_held:
+            q += self._correction(self.normals @ q - self.h0)
+            v += self._correction(self.normals @ v)
+
+    def save(self) -> None:
+        self._saved = (self.held.copy(), self.lam.copy(), self.since.copy(), len(self.intervals))
+
+    def restore(self) -> None:
+        held, lam, since, n = self._saved
+        self.held[:], self.lam[:], self.since[:] = held, lam, since
+        del self.intervals[n:]
+
+    def finish(self, t: float) -> None:
+        for c in np.flatnonzero(self.held):
+            self._release(int(c), t)

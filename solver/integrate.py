@@ -34,8 +34,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .airbearing import make_air_bearing
-from .contact import ContactError, Impact, corner_normal, impact_map, surface_slope
+from .airbearing import ReynoldsFilm
+from .bearings import make_air_bearing
+from .contact import ContactError, Impact, SustainedContact, corner_normal, impact_map, surface_slope
 from .dynamics import mass_matrix
 from .geometry import corner_positions
 from .kernels import motion as km
@@ -59,6 +60,7 @@ class Result:
     message: str
     steady: SteadyFlight
     work: dict[str, float] = field(default_factory=dict)
+    sustained: list[tuple[float, float, int]] = field(default_factory=list)  # (start, end, corner)
 
     @property
     def min_spacing(self) -> np.ndarray:
@@ -68,11 +70,10 @@ class Result:
 def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     """Integrate one run of ``scene`` from steady flight plus the initial velocities."""
     wall0 = time.perf_counter()
-    film = make_air_bearing(scene)
+    bearing = make_air_bearing(scene)
     if steady is None:
-        steady = fly(scene, film=film)
-    if steady.pressure.shape != film.P.shape:
-        raise ValueError("the steady flight was computed on another grid than this scene's")
+        steady = fly(scene, film=bearing.reynolds)
+    bearing.start(steady)
     sus = steady.suspension
     suspension = np.array(
         [
@@ -84,7 +85,6 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
         ]
     )
     q = steady.q.copy()
-    film.P = steady.pressure / scene.air.ambient_pressure
     init = scene.initial
     v = np.array([init.zdot, init.pitch_rate, init.roll_rate])
     num = scene.numerics
@@ -93,48 +93,62 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     normals = np.array([corner_normal(x1, x2) for x1, x2 in corners])
     h0 = scene.disk.asperity_height
     touch_tol = 1e-9 * max(h0, 1e-9)
-    dt, t_end = num.dt, num.t_end
-    n_grid = int(round(t_end / dt))
-    out_every = num.output_every
-    force_args = film.force_args()
-    film_args = film.kernel_args()
     f_air = np.empty(3)
-    km.generalized_forces(film.P, film.area, force_args[2], force_args[3], force_args[0], force_args[1], f_air)
+    bearing.forces(q, v, f_air)
     acc = np.empty(3)
     km.accelerations(f_air, q, suspension, minv, acc)
-    ts, qs, vs, fs = [0.0], [q.copy()], [v.copy()], [f_air.copy()]
-    impacts: list[Impact] = []
-    status, message = 0, "reached t_end"
-    t, k = 0.0, 0
-    steps = newton = 0
     start_gaps = normals @ q - h0
     if np.any(start_gaps < -touch_tol):
         raise ContactError(f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)")
+    contact = SustainedContact(scene, normals, minv, h0)
+    out = _Samples(q, v, f_air)
+    impacts: list[Impact] = []
+    stepper = _Stepper(num)
+    status, message = 0, "reached t_end"
+    t = 0.0
+    stalls = 0
     try:
-        while k < n_grid:
-            t_target = (k + 1) * dt
-            s_max = t_target - t  # short after an impact: back onto the grid (the film step is fine at any s > 0)
-            s_event, hit = km.first_event(normals, q, v, acc, h0, s_max)
-            grid_step = not (hit >= 0 and s_event < s_max * (1.0 - 1e-12))
-            s = s_max if grid_step else s_event
-            newton += km.verlet_step(s, q, v, acc, f_air, minv, suspension, *force_args, film.P, *film_args)
-            steps += 1
-            if not np.isfinite(f_air).all():
-                raise FloatingPointError(f"film pressure became non-finite at t = {t + s:.6g} s")
-            if grid_step:
-                t = t_target
-                k += 1
-                if k % out_every == 0 or k == n_grid:
-                    ts.append(t)
-                    qs.append(q.copy())
-                    vs.append(v.copy())
-                    fs.append(f_air.copy())
+        while not stepper.done(t):
+            s_max = stepper.proposal(t)
+            free = contact.free
+            s_event, hit = km.first_event(normals[free], q, v, acc, h0, s_max)
+            event = hit >= 0 and s_event < s_max * (1.0 - 1e-12)
+            s = s_event if event else s_max
+            q_prev, v_prev, acc_prev, f_prev = q.copy(), v.copy(), acc.copy(), f_air.copy()
+            if stepper.adaptive:
+                bearing.save()
+                contact.save()
+            stepper.newton += bearing.advance(s, q, v, acc, f_air, minv, suspension)
+            stepper.steps += 1
+            if contact.any_held:
+                contact.constrain(s, t + s, q, v, acc)
+            if not (np.isfinite(f_air).all() and np.isfinite(q).all()):
+                raise FloatingPointError(f"the state became non-finite at t = {t + s:.6g} s")
+            if stepper.adaptive and not stepper.accept(s, normals[free], acc - acc_prev):
+                bearing.restore()
+                contact.restore()
+                q[:], v[:], acc[:], f_air[:] = q_prev, v_prev, acc_prev, f_prev
                 continue
-            t += s
-            gap_hit = float(normals[hit] @ q - h0)
+            t_new = stepper.advanced(t, s, event)
+            out.record(t, t_new, q_prev, v_prev, f_prev, q, v, f_air, stepper)
+            t = t_new
+            if not event:
+                continue
+            c = int(np.flatnonzero(free)[hit])
+            gap_hit = float(normals[c] @ q - h0)
             if abs(gap_hit) > touch_tol:
                 raise ContactError(f"event location missed the asperity height by {gap_hit:.3g} m")
-            v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts)
+            n_before, held_before = len(impacts), contact.held.copy()
+            v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
+            stalls = stalls + 1 if len(impacts) == n_before and (contact.held == held_before).all() else 0
+            if stalls > 100:
+                raise ContactError(
+                    f"contact events stall at t = {t:.6g} s: a corner grazes the asperities without impact "
+                    "(contact.rest_velocity = 0 turns the chattering rule off)"
+                )
+            if contact.any_held:
+                km.accelerations(f_air, q, suspension, minv, acc)
+                contact.apply_forces(acc, t)
             if len(impacts) >= scene.contact.max_impacts:
                 status = 1
                 message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
@@ -142,29 +156,141 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     except (ContactError, FloatingPointError, np.linalg.LinAlgError) as err:
         status, message = -1, f"{type(err).__name__}: {err}"
         log.warning("run failed: %s", message)
-    film.work.reynolds_solves += steps
-    film.work.newton_iterations += newton
+    contact.finish(t)
+    if isinstance(bearing, ReynoldsFilm):
+        bearing.work.reynolds_solves += stepper.steps
+    bearing.work.newton_iterations += stepper.newton
     work = {
-        "steps": steps,
-        "reynolds_solves": film.work.reynolds_solves,
-        "newton_iterations": newton,
-        "rejected_steps": 0,
+        "steps": stepper.steps,
+        "reynolds_solves": bearing.work.reynolds_solves,
+        "newton_iterations": stepper.newton,
+        "rejected_steps": stepper.rejected,
+        "smallest_step": stepper.smallest,
+        "largest_step": stepper.largest,
         "impacts": len(impacts),
+        "sustained_contacts": len(contact.intervals),
+        "sustained_contact_time": sum(b - a for a, b, _ in contact.intervals),
+        "table_outside_steps": getattr(bearing, "outside_steps", 0),
+        "model_build_seconds": getattr(bearing, "build_seconds", 0.0),
         "wall_time": time.perf_counter() - wall0,
     }
-    qs_arr = np.array(qs)
+    ts, qs_arr, vs, fs = out.arrays()
     return Result(
-        t=np.array(ts),
+        t=ts,
         q=qs_arr,
-        v=np.array(vs),
+        v=vs,
         corner_spacing=qs_arr @ normals.T,
-        air_force=np.array(fs),
+        air_force=fs,
         impacts=impacts,
         status=status,
         message=message,
         steady=steady,
         work=work,
+        sustained=contact.intervals,
     )
+
+
+class _Stepper:
+    """Step sizes: the uniform grid t_k = k dt (fixed), or a local-error controller (adaptive).
+
+    Adaptive: Verlet's local position error is s^3 q'''/6 ~ s^2 (a_{n+1} - a_n) / 6.
+    Measured as corner spacing, err = max_c |n_c . (a_{n+1} - a_n)| s^2 / 6 must
+    stay below ``step_tol`` [m]; a step above it is rejected and retaken.  The
+    next step is s (tol / err)^(1/3) with safety 0.9, growth at most 2x, at most
+    ``dt_max``.  Event-shortened steps are checked the same way; after one the
+    controller resumes from the step it had proposed.
+    """
+
+    def __init__(self, num) -> None:
+        self.num = num
+        self.adaptive = num.time_step == "adaptive"
+        self.dt, self.t_end = num.dt, num.t_end
+        self.n_grid = int(round(num.t_end / num.dt))
+        self.k = 0
+        self.s_next = num.dt
+        self.steps = self.newton = self.rejected = 0
+        self.smallest, self.largest = np.inf, 0.0
+
+    def done(self, t: float) -> bool:
+        if self.adaptive:
+            return t >= self.t_end * (1.0 - 1e-12)
+        return self.k >= self.n_grid
+
+    def proposal(self, t: float) -> float:
+        if self.adaptive:
+            return min(self.s_next, self.num.dt_max, self.t_end - t)
+        return (self.k + 1) * self.dt - t  # short after an impact: back onto the grid
+
+    def accept(self, s: float, normals: np.ndarray, dacc: np.ndarray) -> bool:
+        err = float(np.abs(normals @ dacc).max(initial=0.0)) * s * s / 6.0 / self.num.step_tol
+        factor = 2.0 if err == 0.0 else min(2.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
+        if err > 1.0:
+            self.rejected += 1
+            self.s_next = s * factor
+            return False
+        shortened = s < self.s_next * (1.0 - 1e-12)
+        self.s_next = max(self.s_next, s * factor) if shortened else s * factor
+        return True
+
+    def advanced(self, t: float, s: float, event: bool) -> float:
+        self.smallest = min(self.smallest, s)
+        self.largest = max(self.largest, s)
+        if self.adaptive or event:
+            return t + s
+        self.k += 1
+        return self.k * self.dt
+
+
+class _Samples:
+    """Stored time series.
+
+    Fixed steps: every ``output_interval`` on the uniform grid.  Adaptive:
+    at multiples of ``output_interval`` by cubic Hermite interpolation of
+    (q, v) between accepted steps (every step when it is 0).
+    """
+
+    def __init__(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+        self.t, self.q, self.v, self.f = [0.0], [q.copy()], [v.copy()], [f.copy()]
+
+    def record(self, t0, t1, q0, v0, f0, q1, v1, f1, stepper: _Stepper) -> None:
+        num = stepper.num
+        if not stepper.adaptive:
+            k = stepper.k
+            if t1 == k * stepper.dt and (k % num.output_every == 0 or k == stepper.n_grid):
+                self._append(t1, q1, v1, f1)
+            return
+        if num.output_interval <= 0.0:
+            self._append(t1, q1, v1, f1)
+            return
+        h = t1 - t0
+        n_next = int(np.floor(self.t[-1] / num.output_interval + 1e-9)) + 1
+        while True:
+            tk = n_next * num.output_interval
+            final = stepper.done(t1) and tk > t1
+            if tk > t1 * (1.0 + 1e-12) and not final:
+                return
+            tk = min(tk, t1)
+            x = (tk - t0) / h
+            h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
+            d00, d10, d01, d11 = 6 * x**2 - 6 * x, 3 * x**2 - 4 * x + 1, -6 * x**2 + 6 * x, 3 * x**2 - 2 * x
+            self._append(
+                tk,
+                h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1,
+                (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1,
+                (1.0 - x) * f0 + x * f1,
+            )
+            n_next += 1
+            if final:
+                return
+
+    def _append(self, t, q, v, f) -> None:
+        self.t.append(float(t))
+        self.q.append(np.array(q, dtype=float))
+        self.v.append(np.array(v, dtype=float))
+        self.f.append(np.array(f, dtype=float))
+
+    def arrays(self):
+        return np.array(self.t), np.array(self.q), np.array(self.v), np.array(self.f)
 
 
 def _resolve_impacts(
@@ -176,24 +302,38 @@ def _resolve_impacts(
     touch_tol: float,
     minv: np.ndarray,
     impacts: list[Impact],
+    contact: SustainedContact,
+    acc: np.ndarray,
 ) -> np.ndarray:
-    """Apply the impact map at every corner touching the asperities and approaching them.
+    """Apply the impact map at every free corner touching the asperities and approaching them.
 
     Corners touching at once (two rear corners at zero roll) are resolved one
-    after the other until none approaches (at most 8 passes).
+    after the other until none approaches (at most 8 passes).  An impact
+    that would rebound slower than ``contact.rest_velocity`` onto a pressed
+    corner starts sustained contact instead (:class:`SustainedContact`).
     """
     touching = np.flatnonzero(np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol)
     for _ in range(8):
         resolved = False
         for c in touching:
+            if contact.held[c]:
+                continue
             v_new, impulse = impact_map(q, v, int(c), scene, minv)
-            if impulse > 0.0:
-                u_before = -float(normals[c] @ v)
-                u_after = -float(normals[c] @ v_new)
-                wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
-                impacts.append(Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after))
-                v = v_new
-                resolved = True
+            if impulse <= 0.0:
+                if contact.should_hold(int(c), v, acc):  # grazing: touches without approaching, pressed on
+                    v = contact.hold(int(c), v, t)[0]
+                    resolved = True
+                continue
+            if contact.should_hold(int(c), v_new, acc):
+                v_new, impulse = contact.hold(int(c), v, t)
+            elif contact.any_held:
+                v_new = contact.project_velocity(v_new, t)
+            u_before = -float(normals[c] @ v)
+            u_after = -float(normals[c] @ v_new)
+            wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
+            impacts.append(Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after))
+            v = v_new
+            resolved = True
         if not resolved:
             break
     return v

@@ -211,6 +211,13 @@ class Contact(Section):
     alpha: float = quantity(0.8, "1", "coefficient of restitution", symbol="alpha", lo=0.0, hi=1.0)
     wedging: bool = quantity(True, "1", "include the wedging term eps*V in the approach velocity")
     max_impacts: int = quantity(2000, "1", "stop a run after this many impacts", lo=1)
+    rest_velocity: float = quantity(
+        1.0e-4,
+        "m s-1",
+        "chattering rule: a corner pressed onto the asperities that rebounds slower than this stays in "
+        "sustained contact (0 = never)",
+        lo=0.0,
+    )
 
 
 @dataclass(frozen=True)
@@ -245,7 +252,7 @@ class Calibration(Section):
     roll: float = quantity(0.0, "rad", "target roll (source_attitude mode)")
 
 
-AIR_BEARING_MODELS = ("reynolds", "none")
+AIR_BEARING_MODELS = ("reynolds", "quasi_static", "linearized", "none")
 SLIP_MODELS = ("first_order", "continuum", "second_order")
 CONTACT_MODELS = ("restitution",)
 
@@ -258,6 +265,9 @@ class Models(Section):
     air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=AIR_BEARING_MODELS)
     slip: str = quantity("first_order", "", "slip law", choices=SLIP_MODELS)
     contact: str = quantity("restitution", "", "contact law", choices=CONTACT_MODELS)
+
+
+STEP_CONTROLS = ("fixed", "adaptive")
 
 
 @dataclass(frozen=True)
@@ -282,7 +292,14 @@ class Numerics(Section):
         lo=0.0,
         hi=8.0,
     )
-    dt: float = quantity(1.0e-7, "s", "time step", lo=0.0, lo_open=True)
+    dt: float = quantity(1.0e-7, "s", "time step (adaptive stepping: the first step)", lo=0.0, lo_open=True)
+    time_step: str = quantity(
+        "fixed", "", "time-step control: fixed dt, or adaptive from a local error estimate", choices=STEP_CONTROLS
+    )
+    step_tol: float = quantity(
+        1.0e-13, "m", "adaptive stepping: local error per step in the corner spacings", lo=0.0, lo_open=True
+    )
+    dt_max: float = quantity(2.0e-6, "s", "adaptive stepping: largest step", lo=0.0, lo_open=True)
     t_end: float = quantity(300.0e-6, "s", "duration of a run", lo=0.0, lo_open=True)
     output_interval: float = quantity(0.2e-6, "s", "sampling interval of stored time series", lo=0.0)
     newton_max_iter: int = quantity(1, "1", "Newton iterations per time step (1 = linearly implicit)", lo=1)
@@ -294,14 +311,37 @@ class Numerics(Section):
         lo=0.0,
         lo_open=True,
     )
+    table_nz: int = quantity(11, "1", "quasi_static table: nodes along z", lo=4)
+    table_npitch: int = quantity(11, "1", "quasi_static table: nodes along pitch", lo=4)
+    table_nroll: int = quantity(9, "1", "quasi_static table: nodes along roll (odd: roll = 0 is a node)", lo=5)
+    table_z_below: float = quantity(
+        0.06e-6, "m", "quasi_static table: z range below steady flight", lo=0.0, lo_open=True
+    )
+    table_z_above: float = quantity(
+        2.0e-6, "m", "quasi_static table: z range above steady flight", lo=0.0, lo_open=True
+    )
+    table_pitch_span: float = quantity(
+        800e-6, "rad", "quasi_static table: pitch range either side of steady flight", lo=0.0, lo_open=True
+    )
+    table_roll_span: float = quantity(
+        500e-6, "rad", "quasi_static table: roll range either side of 0", lo=0.0, lo_open=True
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
         ratio = self.output_interval / self.dt
-        if self.output_interval != 0.0 and (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio):
+        if (
+            self.time_step == "fixed"
+            and self.output_interval != 0.0
+            and (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio)
+        ):
             raise ParameterError(
                 f"numerics.output_interval = {self.output_interval!r} is not allowed with numerics.dt = {self.dt!r}: "
                 "must be 0 (every step) or a whole multiple of dt [s]"
+            )
+        if self.table_nroll % 2 == 0:
+            raise ParameterError(
+                f"numerics.table_nroll = {self.table_nroll} is not allowed: must be odd (roll = 0 is a node)"
             )
         if self.nx - self.nx_taper + 1 < 11:
             raise ParameterError(

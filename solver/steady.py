@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .airbearing import ReynoldsFilm, SteadyFilmError, make_air_bearing
+from .airbearing import ReynoldsFilm, SteadyFilmError, make_film
 from .dynamics import suspension_forces
 from .geometry import CORNERS, corner_positions, corner_spacings
 from .params import Scene, Suspension
@@ -94,7 +94,7 @@ def fly(
     ``source_attitude``: the attitude is the calibration target and the
     suspension is set to balance the film there (:func:`calibrated_suspension`).
     """
-    film = make_air_bearing(scene) if film is None else film
+    film = make_film(scene) if film is None else film
     cal = scene.calibration
     if film.P.shape[0] == 0 and cal.mode != "source_attitude":
         raise AttitudeError(

@@ -39,7 +39,9 @@ def scene1() -> Scene:
     return small_scene()
 
 
-def rigid_scene(*, t_end: float, alpha: float = 0.5, max_impacts: int = 2000, **numerics) -> Scene:
+def rigid_scene(
+    *, t_end: float, alpha: float = 0.5, max_impacts: int = 2000, rest_velocity: float = 1e-4, **numerics
+) -> Scene:
     """No film, no disk motion, no pitch/roll coupling: the slider is a point mass on four corners.
 
     Pitch and roll inertias of 1e12 kg m^2 make the spin an impact gives
@@ -52,7 +54,7 @@ def rigid_scene(*, t_end: float, alpha: float = 0.5, max_impacts: int = 2000, **
         slider=Slider(taper_length=TAPER_LENGTH, cg_offset=0.0, pitch_inertia=1e12, roll_inertia=1e12),
         disk=Disk(speed=0.0),
         calibration=Calibration(pitch=0.0),
-        contact=Contact(alpha=alpha, mu=0.0, max_impacts=max_impacts),
+        contact=Contact(alpha=alpha, mu=0.0, max_impacts=max_impacts, rest_velocity=rest_velocity),
         numerics=Numerics(t_end=t_end, nx=41, nx_taper=11, ny=5, **numerics),
     )
 

@@ -19,7 +19,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from conftest import EPS, SCENE1_ATTITUDE, inclined_slider_arrays, small_scene
 
-from solver.airbearing import SLIP_LAWS, make_air_bearing, steady_newton
+from solver.airbearing import SLIP_LAWS, make_film, steady_newton
 from solver.grid import control_volume_widths
 from solver.kernels import reynolds as kr
 from solver.params import Numerics
@@ -446,7 +446,7 @@ def test_high_bearing_number_limit():
 
 @pytest.fixture(scope="module")
 def film1(scene1):
-    film = make_air_bearing(scene1)
+    film = make_film(scene1)
     film.solve_steady(SCENE1_ATTITUDE)
     return film
 
@@ -468,7 +468,7 @@ def force_noise(scene):
 
 
 def test_roll_moment_is_odd_in_roll(scene1):
-    film = make_air_bearing(scene1)
+    film = make_film(scene1)
     roll = 2e-6
     forces = []
     for sign in (1.0, -1.0):
@@ -490,7 +490,7 @@ def test_scene1_film_converges_at_second_order():
     for level in range(3):
         k = 2**level
         numerics = Numerics(nx=60 * k + 1, nx_taper=10 * k + 1, ny=8 * k + 1)
-        film = make_air_bearing(small_scene(numerics=numerics))
+        film = make_film(small_scene(numerics=numerics))
         film.solve_steady(SCENE1_ATTITUDE)
         forces.append(film.generalized_forces()[:2])
     forces = np.array(forces)
@@ -519,7 +519,7 @@ def stiffness_matrix(film, q0):
 
 
 def test_steady_flight_is_statically_stable(scene1):
-    film = make_air_bearing(scene1)
+    film = make_film(scene1)
     K = stiffness_matrix(film, SCENE1_ATTITUDE)
     # heave: pushing the slider down raises the film force; roll: restoring
     assert K[0, 0] > 0.0
@@ -542,7 +542,7 @@ def test_steady_flight_is_statically_stable(scene1):
 def test_squeeze_film_resists_motion(scene1, direction):
     # a film squeezed by an approaching slider carries more than the steady film at the
     # same attitude (and less when the slider withdraws): the squeeze term damps heave
-    film = make_air_bearing(scene1)
+    film = make_film(scene1)
     P0 = film.solve_steady(SCENE1_ATTITUDE).copy()
     dt, n, speed = 0.1e-6, 10, 1e-3  # 1 mm/s for 1 us: 1 nm, ~1 % of the spacing
     q = SCENE1_ATTITUDE.copy()
@@ -551,7 +551,7 @@ def test_squeeze_film_resists_motion(scene1, direction):
         film.step(q, q_new, dt)
         q = q_new
     moving = film.generalized_forces()[0]
-    steady = make_air_bearing(scene1)
+    steady = make_film(scene1)
     steady.solve_steady(q, P0)
     assert direction * (moving - steady.generalized_forces()[0]) < 0.0
 
@@ -567,7 +567,7 @@ def test_steady_pressure_is_a_fixed_point_of_the_film_step(film1, scene1):
 
 def test_film_time_step_is_second_order(scene1):
     # attitude on a smooth prescribed path from a steady start; forces at T against a 4x finer step
-    film = make_air_bearing(scene1)
+    film = make_film(scene1)
     P0 = film.solve_steady(SCENE1_ATTITUDE).copy()
     omega, T = 2 * np.pi * 20e3, 20e-6
 
