@@ -1,20 +1,40 @@
-"""``hdi bench``: cost per step and per run against error, over grids and time steps.
+"""``hdi bench``: speed against error for scene 1, over grids, time steps and air-bearing levels.
 
-For scene 1 it runs the source's disturbance (mu = 0.5, alpha = 0.8) on a
-family of grids (nodes along x across a rail) at dt = 0.1 us and a family
-of time steps at the source's grid, times each case (median of repeats;
-the machine is shared and noisy), and reports the error of the first
-impulses and impact times against the finest case.  A baseline measured in
-the same run, a Newton step with the exact Jacobian and a scipy sparse
-direct solve on the same grid, gives the speed-up of the approximate
-factorisation at equal step.
+Every case runs two scenes from steady flight: the source's contact
+sequence (mu = 0.5, alpha = 0.8, initial velocities of the scene file) and a
+flying disturbance that makes no contact (zdot = -2 mm/s).  Errors are
+measured against a reference computed on the finest affordable grid and
+step (801 x 81 clustered, dt 0.05 us; ``--quick``: 201 x 21, dt 0.1 us):
+
+* steady flight: with the reference's suspension (preload and moments), the
+  flying height and pitch the case's grid predicts (``calibration.mode =
+  "none"``);
+* the first three impulses (relative), the first impact time, and whether
+  the stable/unstable classification changes;
+* the flying run: the largest deviation of the gimbal height from the
+  reference's, relative to the reference's largest excursion.
+
+Cost: median wall time per run over ``--repeats`` runs (the machine is shared
+and noisy), per step, steps, Reynolds solves, Newton iterations, rejected
+steps; the baseline (an exact-Jacobian Newton step with a scipy sparse direct
+solve on the same grid and step) is measured in the same process.
+
+Families: grids with uniform spacing across the rail (as the source) and
+clustered at the rail edges, fixed time steps and adaptive tolerances on
+the recommended grid, and the three air-bearing levels.  The report prints
+the observed orders, compares fixed and adaptive stepping at equal error,
+and recommends the cheapest setting whose first impulses are within 1 %
+with the classification unchanged.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import time
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
@@ -22,25 +42,65 @@ import scipy.sparse.linalg as spla
 import xarray as xr
 
 from solver.airbearing import make_film
-from solver.integrate import simulate
+from solver.integrate import Result, simulate
 from solver.kernels import reynolds as kr
-from solver.params import Numerics, Scene
-from solver.steady import fly
+from solver.params import Scene
+from solver.steady import SteadyFlight, fly
 
+from .classify import classify_impulses
 from .config import load_scene
 from .provenance import base_attrs
 from .store import var, write_netcdf
 
-GRIDS = [(51, 9, 7), (101, 16, 11), (201, 31, 21), (401, 61, 41)]
-QUICK_GRIDS = [(51, 9, 7), (101, 16, 11), (201, 31, 21)]
-STEPS = [0.4e-6, 0.2e-6, 0.1e-6, 0.05e-6]
-N_COMPARED = 3  # impulses compared between cases (later impacts of a chaotic sequence drift apart)
+N_COMPARED = 3  # impulses compared (later impacts of a chaotic sequence drift apart)
+IMPULSE_TARGET = 0.01
+FLYING = {"zdot": -0.002, "pitch_rate": 0.0, "roll_rate": 0.0}
+#: grid and step of the time-step and fidelity families (the recommended grid)
+BASE_GRID = {"nx": 151, "nx_taper": 0, "ny": 15, "cluster_y": 2.0}
 
 
-def _scene(base: Scene, nx: int, nt: int, ny: int, dt: float, t_end: float) -> Scene:
-    interval = dt * max(1, round(base.numerics.output_interval / dt))
-    num = dataclasses.replace(base.numerics, nx=nx, nx_taper=nt, ny=ny, dt=dt, t_end=t_end, output_interval=interval)
-    return dataclasses.replace(base, numerics=num)
+@dataclass
+class Case:
+    family: str
+    label: str
+    numerics: dict
+    model: str = "reynolds"
+    row: dict = field(default_factory=dict)
+
+
+def families(quick: bool) -> list[Case]:
+    cases: list[Case] = []
+    grids_uniform = [(51, 7), (101, 11), (201, 21)] if quick else [(51, 7), (101, 11), (201, 21), (401, 41)]
+    grids_clustered = (
+        [(51, 7), (101, 11), (151, 15)] if quick else [(51, 7), (101, 11), (151, 15), (201, 21), (401, 41)]
+    )
+    for nx, ny in grids_uniform:
+        num = {"nx": nx, "nx_taper": 0, "ny": ny, "cluster_y": 0.0, "dt": 1e-7}
+        cases.append(Case("grid, uniform across the rail", f"{nx}x{ny}", num))
+    for nx, ny in grids_clustered:
+        num = {"nx": nx, "nx_taper": 0, "ny": ny, "cluster_y": 2.0, "dt": 1e-7}
+        cases.append(Case("grid, clustered at the rail edges", f"{nx}x{ny} c", num))
+    for dt in [0.4e-6, 0.2e-6] if quick else [0.8e-6, 0.4e-6, 0.2e-6, 0.1e-6, 0.05e-6]:
+        cases.append(Case("fixed step", f"dt {dt * 1e6:g} us", {**BASE_GRID, "dt": dt}))
+    for tol in [1e-11, 1e-12] if quick else [1e-10, 1e-11, 1e-12, 1e-13]:
+        num = {**BASE_GRID, "dt": 1e-7, "time_step": "adaptive", "step_tol": tol}
+        cases.append(Case("adaptive step", f"tol {tol:.0e} m", num))
+    for model in ("quasi_static", "linearized"):
+        cases.append(Case("air-bearing level", model, {**BASE_GRID, "dt": 2e-7}, model=model))
+    return cases
+
+
+def _scene(base: Scene, numerics: dict, model: str = "reynolds", **initial) -> Scene:
+    num = {"time_step": "fixed", **numerics}
+    if num["time_step"] == "fixed":
+        num["output_interval"] = num["dt"] * max(1, round(0.2e-6 / num["dt"]))
+    else:
+        num["output_interval"] = 0.2e-6
+    scene = dataclasses.replace(base, numerics=dataclasses.replace(base.numerics, **num))
+    scene = dataclasses.replace(scene, models=dataclasses.replace(scene.models, air_bearing=model))
+    if initial:
+        scene = dataclasses.replace(scene, initial=dataclasses.replace(scene.initial, **initial))
+    return scene
 
 
 def sparse_direct_step_cost(scene: Scene, n_steps: int = 10) -> float:
@@ -81,109 +141,304 @@ def sparse_direct_step_cost(scene: Scene, n_steps: int = 10) -> float:
     return float(np.median(times))
 
 
-def _measure(scene: Scene, repeats: int) -> dict[str, float]:
-    steady = fly(scene)
-    simulate(scene, steady)  # warm-up (JIT, caches)
-    walls, result = [], None
+def _timed(scene: Scene, steady: SteadyFlight, repeats: int) -> tuple[Result, float]:
+    result = simulate(scene, steady)  # warm-up: JIT, table or coefficient build
+    walls = [result.work["wall_time"] - result.work["model_build_seconds"]] if repeats == 0 else []
     for _ in range(repeats):
         result = simulate(scene, steady)
         walls.append(result.work["wall_time"])
-    assert result is not None
-    imp = result.impacts[:N_COMPARED]
-    row = {
-        "wall_per_run": float(np.median(walls)),
-        "wall_per_step": float(np.median(walls)) / result.work["steps"],
-        "steps": result.work["steps"],
-        "newton_iterations": result.work["newton_iterations"],
-        "n_impacts": len(result.impacts),
-        "preload": steady.suspension.preload,
+    return result, float(np.median(walls))
+
+
+def _steady_with(scene: Scene, reference: SteadyFlight) -> SteadyFlight:
+    """Steady flight of ``scene``'s grid under the reference's suspension."""
+    free = dataclasses.replace(
+        scene,
+        suspension=reference.suspension,
+        calibration=dataclasses.replace(scene.calibration, mode="none"),
+    )
+    return fly(free, q0=reference.q)
+
+
+def measure(case: Case, base: Scene, repeats: int) -> dict:
+    scene = _scene(base, case.numerics, case.model)
+    steady = fly(scene)
+    contact, wall = _timed(scene, steady, repeats)
+    flying_scene = _scene(base, case.numerics, case.model, **FLYING)
+    flying, wall_fly = _timed(flying_scene, steady, max(1, repeats // 2))
+    growth = classify_impulses([i.impulse for i in contact.impacts], [i.corner for i in contact.impacts])
+    imp = contact.impacts[:N_COMPARED]
+    w = contact.work
+    return {
+        "scene": scene,
+        "steady": steady,
+        "contact": contact,
+        "flying": flying,
+        "wall_per_run": wall,
+        "wall_per_step": wall / w["steps"],
+        "wall_flying": wall_fly,
+        "steps": w["steps"],
+        "reynolds_solves": w["reynolds_solves"] if case.model == "reynolds" else 0,
+        "newton_iterations": w["newton_iterations"],
+        "rejected_steps": w["rejected_steps"],
+        "build_seconds": w["model_build_seconds"],
+        "n_impacts": len(contact.impacts),
+        "steady_load": steady.suspension.preload,
+        "stable": growth.stable,
+        "impulses": [imp[k].impulse if k < len(imp) else np.nan for k in range(N_COMPARED)],
+        "first_impact_time": imp[0].time if imp else np.nan,
+        "flying_impacts": len(flying.impacts),
     }
-    for k in range(N_COMPARED):
-        row[f"impulse_{k + 1}"] = imp[k].impulse if k < len(imp) else np.nan
-        row[f"impact_time_{k + 1}"] = imp[k].time if k < len(imp) else np.nan
-        row[f"corner_{k + 1}"] = imp[k].corner if k < len(imp) else -1
-    return row
+
+
+def errors(row: dict, ref: dict) -> dict:
+    imp = np.array(row["impulses"])
+    imp_ref = np.array(ref["impulses"])
+    e_imp = np.abs(imp / imp_ref - 1.0)
+    z_ref = ref["flying"].q[:, 0]
+    excursion = np.abs(z_ref - z_ref[0]).max()
+    z = np.interp(ref["flying"].t, row["flying"].t, row["flying"].q[:, 0])
+    return {
+        "impulse_error": e_imp,
+        "max_impulse_error": float(np.nanmax(e_imp)) if np.isfinite(e_imp).any() else np.inf,
+        "impact_time_error": abs(row["first_impact_time"] - ref["first_impact_time"]),
+        "flying_error": float(np.abs(z - z_ref).max() / excursion),
+        "classification_changed": bool(row["stable"] != ref["stable"]),
+    }
+
+
+def observed_orders(sizes: list[float], errs: list[float]) -> list[float]:
+    """p between consecutive members: log(e_i / e_i+1) / log(size_i / size_i+1) (size: h or dt)."""
+    out = []
+    for (h1, e1), (h2, e2) in zip(zip(sizes, errs), zip(sizes[1:], errs[1:])):
+        out.append(math.log(e1 / e2) / math.log(h1 / h2) if e1 > 0 and e2 > 0 else float("nan"))
+    return out
+
+
+def cost_at_error(walls: list[float], errs: list[float], target: float) -> float:
+    """Wall time at ``target`` error by log-log interpolation along a family (nan outside it)."""
+    pts = sorted((e, w) for e, w in zip(errs, walls) if e > 0 and np.isfinite(e))
+    for (e1, w1), (e2, w2) in zip(pts, pts[1:]):
+        if e1 <= target <= e2:
+            x = (math.log(target) - math.log(e1)) / (math.log(e2) - math.log(e1)) if e2 > e1 else 0.0
+            return math.exp(math.log(w1) + x * (math.log(w2) - math.log(w1)))
+    return float("nan")
 
 
 def run_bench(args: argparse.Namespace) -> int:
-    base = load_scene(args.scene, ["contact.mu=0.5", "contact.alpha=0.8"])
-    t_end = 60e-6 if args.quick else 300e-6
-    grids = QUICK_GRIDS if args.quick else GRIDS
-    steps = [0.2e-6, 0.1e-6] if args.quick else STEPS
-    cases: list[tuple[str, Scene]] = []
-    for nx, nt, ny in grids:
-        cases.append((f"grid {nx}x{ny} dt 0.1us", _scene(base, nx, nt, ny, 1e-7, t_end)))
-    src = Numerics()
-    for dt in steps:
-        if dt != 1e-7:
-            cases.append(
-                (f"grid {src.nx}x{src.ny} dt {dt * 1e6:g}us", _scene(base, src.nx, src.nx_taper, src.ny, dt, t_end))
-            )
-    rows = []
-    for label, scene in cases:
-        row = _measure(scene, args.repeats)
-        rows.append((label, scene, row))
+    base = load_scene(args.scene, ["contact.mu=0.5", "contact.alpha=0.8", "numerics.t_end=300e-6"])
+    quick = args.quick
+    ref_num = {"nx": 201, "nx_taper": 0, "ny": 21, "cluster_y": 2.0, "dt": 1e-7}
+    if not quick:
+        ref_num = {"nx": 801, "nx_taper": 0, "ny": 81, "cluster_y": 2.0, "dt": 0.05e-6}
+    t0 = time.perf_counter()
+    reference = Case("reference", "reference", ref_num)
+    reference.row = measure(reference, base, 0)
+    ref = reference.row
+    print(
+        f"reference {ref_num['nx']}x{ref_num['ny']} clustered, dt {ref_num['dt'] * 1e6:g} us: "
+        f"{ref['wall_per_run']:.1f} s/run, first impulses "
+        + ", ".join(f"{q * 1e6:.5f}" for q in ref["impulses"])
+        + f" uN s, {'stable' if ref['stable'] else 'unstable'}, {ref['n_impacts']} impacts",
+        flush=True,
+    )
+    cases = families(quick)
+    head = (
+        f"{'family':34s} {'case':14s} {'ms/step':>8s} {'s/run':>7s} {'steps':>6s} {'rej':>4s} "
+        f"{'err q1..q3 max':>14s} {'t1 [ns]':>8s} {'load [%]':>8s} {'z [%]':>7s} {'pitch [%]':>9s} {'flying':>7s} class"
+    )
+    print(head)
+    for case in cases:
+        row = measure(case, base, args.repeats)
+        row.update(errors(row, ref))
+        st = _steady_with(row["scene"], ref["steady"])
+        row["steady_z_error"] = abs(st.z / ref["steady"].z - 1.0)
+        row["steady_pitch_error"] = abs(st.pitch / ref["steady"].pitch - 1.0)
+        row["steady_load_error"] = abs(row["steady_load"] / ref["steady_load"] - 1.0)
+        case.row = row
         print(
-            f"{label:28s} {row['wall_per_step'] * 1e3:8.4f} ms/step {row['wall_per_run']:8.3f} s/run "
-            f"impacts {row['n_impacts']:3d}  q1 {row['impulse_1'] * 1e6:.5f} uN s  "
-            f"t1 {row['impact_time_1'] * 1e6:.4f} us",
+            f"{case.family:34s} {case.label:14s} {row['wall_per_step'] * 1e3:8.4f} {row['wall_per_run']:7.3f} "
+            f"{row['steps']:6d} {row['rejected_steps']:4d} {row['max_impulse_error']:14.2e} "
+            f"{row['impact_time_error'] * 1e9:8.3f} {row['steady_load_error'] * 100:8.3f} {row['steady_z_error'] * 100:7.3f} "
+            f"{row['steady_pitch_error'] * 100:9.3f} {row['flying_error']:7.3f} "
+            f"{'stable' if row['stable'] else 'unstable'}{' CHANGED' if row['classification_changed'] else ''}",
             flush=True,
         )
-    finest = max(range(len(grids)), key=lambda i: rows[i][1].numerics.nx)
-    on_src = [i for i, (_, sc, _) in enumerate(rows) if (sc.numerics.nx, sc.numerics.ny) == (src.nx, src.ny)]
-    on_src.sort(key=lambda i: -rows[i][1].numerics.dt)
-    smallest = on_src[-1]
-    heads = " ".join(f"{'err q' + str(k + 1):>9s}" for k in range(N_COMPARED))
-    table = []
-    for title, members, ref_index in (
-        (f"grids at dt 0.1 us, errors against {rows[finest][0]}", range(len(grids)), finest),
-        (f"time steps at {src.nx}x{src.ny}, errors against {rows[smallest][0]}", on_src, smallest),
-    ):
-        print(f"\n{title}\n{'case':28s} {'ms/step':>8s} {'s/run':>8s} {heads} {'err t1 [ns]':>11s}")
-        ref = rows[ref_index][2]
-        for i in members:
-            label, scene, row = rows[i]
-            errs = [abs(row[f"impulse_{k + 1}"] / ref[f"impulse_{k + 1}"] - 1.0) for k in range(N_COMPARED)]
-            err_t = abs(row["impact_time_1"] - ref["impact_time_1"]) * 1e9
-            table.append((f"{label} (vs {rows[ref_index][0]})", scene, row, errs, err_t))
-            print(f"{label:28s} {row['wall_per_step'] * 1e3:8.4f} {row['wall_per_run']:8.3f} "
-                  + " ".join(f"{e:9.2e}" for e in errs) + f" {err_t:11.4f}")  # fmt: skip
-    src_scene = _scene(base, src.nx, src.nx_taper, src.ny, 1e-7, t_end)
-    baseline = sparse_direct_step_cost(src_scene)
-    ours = next(r for lbl, s, r in rows if lbl.startswith(f"grid {src.nx}x{src.ny} dt 0.1us"))
-    print(
-        f"\nbaseline at {src.nx}x{src.ny}, dt 0.1 us: exact-Jacobian Newton step with scipy sparse direct solve "
-        f"{baseline * 1e3:.2f} ms/step (~{baseline * round(t_end / 1e-7):.1f} s per {t_end * 1e6:.0f}-us run); "
-        f"this solver {ours['wall_per_step'] * 1e3:.3f} ms/step: {baseline / ours['wall_per_step']:.1f}x faster"
-    )
+    add_time_errors(cases)
+    report = summarize(cases, ref, base, quick)
+    baseline = report["baseline"]
     if args.output:
-        n = len(table)
-        ds = xr.Dataset(
-            {
-                "wall_per_step": var(
-                    [r["wall_per_step"] for _, _, r, _, _ in table], ("case",), "s", "median wall time per step"
-                ),
-                "wall_per_run": var(
-                    [r["wall_per_run"] for _, _, r, _, _ in table], ("case",), "s", "median wall time per run"
-                ),
-                "nx": var([s.numerics.nx for _, s, _, _, _ in table], ("case",), "1", "nodes along a rail"),
-                "ny": var([s.numerics.ny for _, s, _, _, _ in table], ("case",), "1", "nodes across a rail"),
-                "dt": var([s.numerics.dt for _, s, _, _, _ in table], ("case",), "s", "time step"),
-                "n_impacts": var([r["n_impacts"] for _, _, r, _, _ in table], ("case",), "1", "impacts in the run"),
-                "first_impulse": var([r["impulse_1"] for _, _, r, _, _ in table], ("case",), "N s", "first impulse"),
-                "impulse_error": var(
-                    [e for _, _, _, e, _ in table],
-                    ("case", "k"),
-                    "1",
-                    "relative error of impulse k against the finest case",
-                ),  # fmt: skip
-                "impact_time_error": var([t * 1e-9 for *_, t in table], ("case",), "s", "first impact time error"),
-                "baseline_wall_per_step": var(baseline, (), "s", "scipy sparse direct Newton step (same grid)"),
-            },
-            coords={"case": ("case", [lbl for lbl, *_ in table]), "k": ("k", np.arange(1, N_COMPARED + 1))},
-        )
-        ds.attrs.update(base_attrs("hdi bench: cost against error, scene 1"))
-        ds.attrs["t_end"] = t_end
-        ds.attrs["cases"] = n
+        ds = to_dataset(cases, reference, report)
         print(f"wrote {write_netcdf(ds, args.output)}")
+        if args.figure:
+            from .figures import plot_work_precision
+
+            fig = plot_work_precision(ds)
+            Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
+            fig.savefig(args.figure, dpi=130)
+            print(f"wrote {args.figure}")
+    print(f"bench total {time.perf_counter() - t0:.0f} s; baseline {baseline['per_step'] * 1e3:.2f} ms/step")
     return 0
+
+
+def add_time_errors(cases: list[Case]) -> None:
+    """Time-discretization error of the step families: against the smallest fixed step on the same grid."""
+    steps = [c for c in cases if c.family in ("fixed step", "adaptive step", "air-bearing level")]
+    fixed = [c for c in cases if c.family == "fixed step"]
+    finest = min(fixed, key=lambda c: c.numerics["dt"]) if fixed else None
+    for c in cases:
+        if finest is None or c not in steps:
+            c.row["time_error"] = np.nan
+            continue
+        q = np.array(c.row["impulses"]) / np.array(finest.row["impulses"]) - 1.0
+        c.row["time_error"] = float(np.nanmax(np.abs(q))) if np.isfinite(q).any() else np.inf
+
+
+def summarize(cases: list[Case], ref: dict, base: Scene, quick: bool) -> dict:
+    by_family: dict[str, list[Case]] = {}
+    for c in cases:
+        by_family.setdefault(c.family, []).append(c)
+    report: dict = {"orders": {}, "equal_error": []}
+    print("\nobserved orders (error of the first impulse, between consecutive members):")
+    for fam in ("grid, clustered at the rail edges", "grid, uniform across the rail"):
+        members = [c for c in by_family.get(fam, []) if np.isfinite(c.row["impulse_error"][0])]
+        h = [1.0 / (c.numerics["nx"] - 1) for c in members]
+        p = observed_orders(h, [c.row["impulse_error"][0] for c in members])
+        p_load = observed_orders(h, [c.row["steady_load_error"] for c in members])
+        report["orders"][fam] = (p, p_load)
+        print(f"  {fam:34s} q1: " + ", ".join(f"{x:.2f}" for x in p)
+              + "   steady load at the source attitude: " + ", ".join(f"{x:.2f}" for x in p_load))  # fmt: skip
+    fixed = by_family.get("fixed step", [])
+    adaptive = by_family.get("adaptive step", [])
+    if len(fixed) > 2:
+        finest = min(fixed, key=lambda c: c.numerics["dt"])
+        others = sorted((c for c in fixed if c is not finest), key=lambda c: -c.numerics["dt"])
+        e_t = [c.row["time_error"] for c in others]
+        p_t = observed_orders([c.numerics["dt"] for c in others], e_t)
+        report["orders"]["time step"] = (p_t, [])
+        print(
+            f"  {'time step (vs dt ' + format(finest.numerics['dt'] * 1e6, 'g') + ' us, same grid)':34s} q1: "
+            + ", ".join(f"{x:.2f}" for x in p_t)
+            + "   (errors "
+            + ", ".join(f"{e:.1e}" for e in e_t)
+            + ")"
+        )
+    print(
+        "\nfixed against adaptive stepping at equal error (grid " + f"{BASE_GRID['nx']}x{BASE_GRID['ny']} clustered):"
+    )
+    print("  (time-discretization error of the first impulses, against the smallest fixed step on that grid)")
+    for target in (3e-3, 1e-3, 3e-4):
+        w_f = cost_at_error([c.row["wall_per_run"] for c in fixed], [c.row["time_error"] for c in fixed], target)
+        w_a = cost_at_error([c.row["wall_per_run"] for c in adaptive], [c.row["time_error"] for c in adaptive], target)
+        report["equal_error"].append((target, w_f, w_a))
+        print(f"  impulse error {target:.0e}: fixed {w_f:.3f} s/run, adaptive {w_a:.3f} s/run, ratio {w_f / w_a:.2f}")
+    ok = [
+        c
+        for c in cases
+        if c.model == "reynolds"
+        and c.row["max_impulse_error"] <= IMPULSE_TARGET
+        and not c.row["classification_changed"]
+    ]
+    best = min(ok, key=lambda c: c.row["wall_per_run"]) if ok else None
+    report["recommended"] = best
+    if best is not None:
+        print(
+            f"\nrecommended (cheapest with the first {N_COMPARED} impulses within {IMPULSE_TARGET:.0%} and the "
+            f"classification unchanged): {best.family} {best.label}: {best.row['wall_per_run']:.3f} s/run, "
+            f"impulse error {best.row['max_impulse_error']:.2e}, numerics {best.numerics}"
+        )
+    src = next((c for c in cases if c.label == "201x21"), None)
+    src_scene = _scene(base, {"nx": 201, "nx_taper": 31, "ny": 21, "cluster_y": 0.0, "dt": 1e-7})
+    per_step = sparse_direct_step_cost(src_scene)
+    report["baseline"] = {"per_step": per_step}
+    if src is not None:
+        ours = src.row["wall_per_step"]
+        report["baseline"].update(per_run=per_step * src.row["steps"], ours_per_step=ours, speedup=per_step / ours)
+        print(
+            f"\nbaseline at the source's grid 201x21, dt 0.1 us (exact-Jacobian Newton step, scipy sparse direct): "
+            f"{per_step * 1e3:.2f} ms/step, {per_step * src.row['steps']:.1f} s/run; this solver "
+            f"{ours * 1e3:.3f} ms/step, {src.row['wall_per_run']:.3f} s/run: {per_step / ours:.0f}x faster "
+            f"at equal error (same scheme, grid and step)"
+        )
+    if best is not None and src is not None:
+        print(
+            f"recommended setting against the baseline at the source's grid: {per_step * src.row['steps']:.1f} s/run "
+            f"-> {best.row['wall_per_run']:.3f} s/run ({per_step * src.row['steps'] / best.row['wall_per_run']:.0f}x), "
+            f"impulse error {src.row['max_impulse_error']:.2e} -> {best.row['max_impulse_error']:.2e}"
+        )
+    return report
+
+
+def to_dataset(cases: list[Case], reference: Case, report: dict) -> xr.Dataset:
+    def col(key, dtype=float):
+        return np.array([c.row[key] for c in cases], dtype=dtype)
+
+    def num(key, default):
+        return np.array([c.numerics.get(key, default) for c in cases])
+
+    ds = xr.Dataset(
+        {
+            "family": var(np.array([c.family for c in cases], dtype=object), ("case",), "", "case family"),
+            "model": var(np.array([c.model for c in cases], dtype=object), ("case",), "", "air-bearing level"),
+            "nx": var(num("nx", 0), ("case",), "1", "nodes along a rail"),
+            "ny": var(num("ny", 0), ("case",), "1", "nodes across a rail"),
+            "cluster_y": var(num("cluster_y", 0.0), ("case",), "1", "clustering across the rail"),
+            "dt": var(num("dt", np.nan), ("case",), "s", "time step (adaptive: first step)"),
+            "step_tol": var(
+                np.array([c.numerics.get("step_tol", np.nan) if "time_step" in c.numerics else np.nan for c in cases]),
+                ("case",),
+                "m",
+                "adaptive local error tolerance (nan: fixed step)",
+            ),
+            "wall_per_run": var(col("wall_per_run"), ("case",), "s", "median wall time per contact run"),
+            "wall_per_step": var(col("wall_per_step"), ("case",), "s", "median wall time per step"),
+            "steps": var(col("steps", int), ("case",), "1", "steps per contact run"),
+            "reynolds_solves": var(col("reynolds_solves", int), ("case",), "1", "film solves per contact run"),
+            "newton_iterations": var(col("newton_iterations", int), ("case",), "1", "Newton iterations per run"),
+            "rejected_steps": var(col("rejected_steps", int), ("case",), "1", "rejected adaptive steps"),
+            "build_seconds": var(col("build_seconds"), ("case",), "s", "one-off table/coefficient build"),
+            "n_impacts": var(col("n_impacts", int), ("case",), "1", "impacts in the contact run"),
+            "stable": var(col("stable", np.int8), ("case",), "1", "1 stable, 0 unstable"),
+            "classification_changed": var(
+                col("classification_changed", np.int8), ("case",), "1", "classification differs from the reference"
+            ),
+            "first_impulses": var(np.array([c.row["impulses"] for c in cases]), ("case", "k"), "N s", "first impulses"),
+            "impulse_error": var(
+                np.array([c.row["impulse_error"] for c in cases]), ("case", "k"), "1", "relative impulse error"
+            ),
+            "max_impulse_error": var(col("max_impulse_error"), ("case",), "1", "largest error of the first impulses"),
+            "impact_time_error": var(col("impact_time_error"), ("case",), "s", "first impact time error"),
+            "steady_z_error": var(col("steady_z_error"), ("case",), "1", "relative error of the steady gimbal height"),
+            "steady_pitch_error": var(col("steady_pitch_error"), ("case",), "1", "relative error of the steady pitch"),
+            "steady_load_error": var(
+                col("steady_load_error"), ("case",), "1", "relative error of the film load at the source attitude"
+            ),
+            "time_error": var(
+                col("time_error"), ("case",), "1", "first-impulse error against the smallest fixed step, same grid"
+            ),
+            "flying_error": var(
+                col("flying_error"), ("case",), "1", "max gimbal-height deviation in the flying run / excursion"
+            ),
+            "reference_impulses": var(np.array(reference.row["impulses"]), ("k",), "N s", "reference impulses"),
+            "reference_wall_per_run": var(reference.row["wall_per_run"], (), "s", "reference wall time per run"),
+            "baseline_wall_per_step": var(
+                report["baseline"]["per_step"], (), "s", "scipy sparse direct Newton step at 201x21, dt 0.1 us"
+            ),
+        },
+        coords={"case": ("case", [c.label for c in cases]), "k": ("k", np.arange(1, N_COMPARED + 1))},
+    )
+    ds.attrs.update(base_attrs("hdi bench: speed against error, scene 1"))
+    ref_num = reference.numerics
+    ds.attrs["reference"] = (
+        f"{ref_num['nx']}x{ref_num['ny']} clustered (cluster_y {ref_num['cluster_y']}), dt {ref_num['dt']:g} s"
+    )
+    best = report.get("recommended")
+    ds.attrs["recommended"] = f"{best.family}: {best.label} {best.numerics}" if best else "none"
+    ds.attrs["recommended_case"] = best.label if best else ""
+    for fam, (p, p_load) in report["orders"].items():
+        ds.attrs[f"order {fam}"] = ", ".join(f"{x:.2f}" for x in p)
+        if p_load:
+            ds.attrs[f"order {fam} (steady load)"] = ", ".join(f"{x:.2f}" for x in p_load)
+    for target, w_f, w_a in report["equal_error"]:
+        ds.attrs[f"wall per run at time error {target:.0e} (fixed, adaptive)"] = f"{w_f:.4g} s, {w_a:.4g} s"
+    return ds

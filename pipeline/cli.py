@@ -199,6 +199,10 @@ def _estimate(study, ledger, todo: int, workers: int) -> str:
     import statistics
 
     walls = []
+    if study.mode == "multifidelity":
+        from .multifidelity import cheap_study
+
+        study = cheap_study(study)
     for case in study.cases()[:50] if study.mode == "grid" else []:
         record = ledger.finished(case.run_id)
         if record is not None and record.get("wall_time") == record.get("wall_time"):
@@ -237,6 +241,14 @@ def cmd_run(args: argparse.Namespace) -> int:
             done = sum(ledger.finished(c.run_id) is not None for c in cases)
             print(f"  runs: {len(cases)}, already done: {done} (ledger {ledger.folder}), to run: {len(cases) - done}")
             todo = len(cases) - done
+        elif study.mode == "multifidelity":
+            from .multifidelity import cheap_study
+
+            cheap = cheap_study(study).cases()
+            done = sum(ledger.finished(c.run_id) is not None for c in cheap)
+            print(f"  cheap pass ({study.multifidelity}): {len(cheap)} runs, {done} done; then the full scene on the "
+                  "cells next to the class boundary")  # fmt: skip
+            todo = len(cheap) - done
         else:
             n = len(lattice(study))
             lines = study.size // len(study.axis(study.boundary.axis).values)
@@ -263,6 +275,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     )
     if "boundary_lower" in ds:
         _print_boundary(ds)
+    if "refined" in ds:
+        print(
+            f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with the full "
+            f"scene (waves {ds.attrs['refinement_waves']}); {ds.attrs['cells_changed']} changed class"
+        )
     print(f"wrote {output}")
     if not args.no_plot:
         from .figures import plot_dataset, save_figure
@@ -323,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, help="local worker processes (default: one per core; 0: in this process)")
     where.add_argument("--scheduler", help="address of a running dask scheduler, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--mode", choices=("grid", "boundary"), help="override the study's mode")
+    p.add_argument("--mode", choices=("grid", "boundary", "multifidelity"), help="override the study's mode")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a base-scene value for every run, e.g. --set numerics.nx=101")  # fmt: skip
     p.add_argument("--ledger", type=Path, help="folder of per-run records (default OUTPUT_FOLDER/.ledger/NAME)")
@@ -340,11 +357,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--var", action="append", default=None, help="variable to show (repeatable)")
     p.set_defaults(func=cmd_query)
 
-    p = sub.add_parser("bench", help="cost per step and per run against error, several grids")
+    p = sub.add_parser(
+        "bench", help="speed against error: grids, time steps (fixed, adaptive) and air-bearing levels, scene 1"
+    )
     p.add_argument("--scene", default=str(DEFAULT_SCENE))
-    p.add_argument("--quick", action="store_true", help="fewer grids and shorter runs (a smoke check)")
+    p.add_argument("--quick", action="store_true", help="fewer cases and a coarse reference (a smoke check)")
     p.add_argument("--repeats", type=int, default=3, help="timed repeats per case (median reported)")
     p.add_argument("-o", "--output", type=Path, help="netCDF file of the benchmark table")
+    p.add_argument("--figure", type=Path, help="work-precision figure (PNG; needs --output)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs, Figure 17, into results/")

@@ -33,6 +33,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from .boundary import BisectionPlanner
 from .ledger import FAILED, Ledger
+from .multifidelity import MultiFidelityPlanner, add_multifidelity
 from .provenance import PROJECT_ROOT, git_commit, now
 from .runner import run_case, warm_up
 from .store import write_netcdf
@@ -285,7 +286,7 @@ class Outcome:
 
 
 def default_output(study: Study) -> Path:
-    suffix = "_boundary" if study.mode == "boundary" else ""
+    suffix = {"boundary": "_boundary", "multifidelity": "_multifidelity"}.get(study.mode, "")
     return RESULTS / f"{study.name}{suffix}.nc"
 
 
@@ -312,7 +313,13 @@ def run_study(
     """
     t0 = time.perf_counter()
     ledger = Ledger(ledger_dir or default_ledger(study, output))
-    planner: Any = BisectionPlanner(study) if study.mode == "boundary" else GridPlanner(study)
+    planner: Any
+    if study.mode == "boundary":
+        planner = BisectionPlanner(study)
+    elif study.mode == "multifidelity":
+        planner = MultiFidelityPlanner(study)
+    else:
+        planner = GridPlanner(study)
     n_workers = 1 if workers == 0 else (workers or os.cpu_count() or 1)
     expected = planner.expected()
     if isinstance(planner, GridPlanner):  # the progress counts the runs still to compute
@@ -337,10 +344,14 @@ def run_study(
 
         taken = execute(study, planner, ledger, None if workers == 0 and client is None else connect, seen, runner)
     cells = {case.index: (case, record) for case, record, _ in taken}
+    if study.mode == "multifidelity":  # full-model records replace the cheap ones where re-run
+        cells.update({c.index: (c, r) for c, r, _ in taken if c.run_id in planner.full_ids})
     if study.mode == "boundary":
         ds = study_dataset(study, cells, {study.axis(study.boundary.axis).dim: lattice(study)}, planner.summary())
     else:
         ds = study_dataset(study, cells)
+    if study.mode == "multifidelity":
+        add_multifidelity(ds, study, planner.summary())
     computed = [r for _, r, reused in taken if not reused]
     write_netcdf(ds, output)
     return Outcome(

@@ -34,7 +34,7 @@ from solver.params import ParameterError, Scene, field_metadata, scene_from_dict
 from . import __version__
 from .config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml
 
-MODES = ("grid", "boundary")
+MODES = ("grid", "boundary", "multifidelity")
 
 RUN_VARIABLES = (
     "stable",
@@ -52,6 +52,7 @@ RUN_VARIABLES = (
 )
 ALLOWED = {
     "study": {"name", "title", "scene", "mode", "description"},
+    "multifidelity": {"cheap"},
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
     "outputs": {"variables", "impacts"},
@@ -109,6 +110,7 @@ class Study:
     impacts_kept: int
     boundary: Boundary | None
     overrides: tuple[str, ...] = field(default=())
+    multifidelity: dict[str, Any] | None = None  # scene keys of the cheap pass (mode multifidelity)
 
     @property
     def dims(self) -> tuple[str, ...]:
@@ -339,6 +341,25 @@ def load_study(
     if mode == "boundary" and boundary is None:
         raise _study_error(path, "mode = 'boundary'", "needs a [boundary] table (axis, tolerance)")
 
+    cheap = None
+    if "multifidelity" in data:
+        mf = data["multifidelity"]
+        _check_keys(path, "[multifidelity]", mf, ALLOWED["multifidelity"])
+        cheap = _flatten(mf.get("cheap", {}))
+        if not cheap:
+            raise _study_error(path, "[multifidelity] cheap", "needs scene keys for the cheap pass")
+        for key in cheap:
+            if key in {a.key for a in axes}:
+                raise _study_error(path, "[multifidelity.cheap]", f"{key!r} is also an axis")
+        try:
+            scene_from_dict(apply_overrides(base, cheap, source=f"{path} [multifidelity.cheap]"), source=str(path))
+        except ParameterError as err:
+            raise _study_error(path, "[multifidelity.cheap]", str(err)) from None
+        if apply_overrides(base, cheap, source=str(path)) == base:
+            raise _study_error(path, "[multifidelity.cheap]", "does not change the scene")
+    if mode == "multifidelity" and cheap is None:
+        raise _study_error(path, "mode = 'multifidelity'", "needs a [multifidelity.cheap] table of scene keys")
+
     study = Study(
         name=name,
         title=head.get("title", name),
@@ -353,6 +374,7 @@ def load_study(
         impacts_kept=impacts,
         boundary=boundary,
         overrides=tuple(cli),
+        multifidelity=cheap,
     )
     # Every value of every axis must make a valid scene on its own: check each axis value
     # against the base scene now, so that a bad value fails before any run.

@@ -82,7 +82,7 @@ class ReynoldsFilm:
             s.flat_rear,
             s.rail_width,
             n.nx,
-            n.nx_taper,
+            n.taper_nodes,
             n.ny,
             n.cluster_x,
             n.cluster_y,

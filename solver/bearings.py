@@ -304,6 +304,7 @@ class LinearizedBearing:
         q_s = steady.q
         data = _cached(_film_key(self.scene, self.name, q_s), lambda: self.coefficients(q_s))
         self.K, self.C, self.f_s, self.q_s = data["K"], data["C"], data["f_s"], data["q_s"]
+        self.K_static = data["K_static"]
         self.omega = float(data["omega"])
         self.build_seconds = float(data["build_seconds"])
 

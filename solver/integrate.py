@@ -124,7 +124,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
                 contact.constrain(s, t + s, q, v, acc)
             if not (np.isfinite(f_air).all() and np.isfinite(q).all()):
                 raise FloatingPointError(f"the state became non-finite at t = {t + s:.6g} s")
-            if stepper.adaptive and not stepper.accept(s, normals[free], acc - acc_prev):
+            if stepper.adaptive and not stepper.accept(s, normals, free, acc - acc_prev):
                 bearing.restore()
                 contact.restore()
                 q[:], v[:], acc[:], f_air[:] = q_prev, v_prev, acc_prev, f_prev
@@ -221,8 +221,8 @@ class _Stepper:
             return min(self.s_next, self.num.dt_max, self.t_end - t)
         return (self.k + 1) * self.dt - t  # short after an impact: back onto the grid
 
-    def accept(self, s: float, normals: np.ndarray, dacc: np.ndarray) -> bool:
-        err = float(np.abs(normals @ dacc).max(initial=0.0)) * s * s / 6.0 / self.num.step_tol
+    def accept(self, s: float, normals: np.ndarray, free: np.ndarray, dacc: np.ndarray) -> bool:
+        err = km.spacing_error(normals, free, dacc, s) / self.num.step_tol
         factor = 2.0 if err == 0.0 else min(2.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
         if err > 1.0:
             self.rejected += 1
@@ -245,52 +245,51 @@ class _Samples:
     """Stored time series.
 
     Fixed steps: every ``output_interval`` on the uniform grid.  Adaptive:
-    at multiples of ``output_interval`` by cubic Hermite interpolation of
-    (q, v) between accepted steps (every step when it is 0).
+    every accepted step is kept, and at the end the series is resampled at
+    multiples of ``output_interval`` by cubic Hermite interpolation of
+    (q, v) between steps (linear for the film forces); with 0, every step.
     """
 
     def __init__(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
         self.t, self.q, self.v, self.f = [0.0], [q.copy()], [v.copy()], [f.copy()]
+        self.adaptive = False
+        self.interval = 0.0
 
     def record(self, t0, t1, q0, v0, f0, q1, v1, f1, stepper: _Stepper) -> None:
         num = stepper.num
-        if not stepper.adaptive:
-            k = stepper.k
-            if t1 == k * stepper.dt and (k % num.output_every == 0 or k == stepper.n_grid):
+        if stepper.adaptive:
+            self.adaptive, self.interval = True, num.output_interval
+            if t1 > self.t[-1]:
                 self._append(t1, q1, v1, f1)
             return
-        if num.output_interval <= 0.0:
+        k = stepper.k
+        if t1 == k * stepper.dt and (k % num.output_every == 0 or k == stepper.n_grid):
             self._append(t1, q1, v1, f1)
-            return
-        h = t1 - t0
-        n_next = int(np.floor(self.t[-1] / num.output_interval + 1e-9)) + 1
-        while True:
-            tk = n_next * num.output_interval
-            final = stepper.done(t1) and tk > t1
-            if tk > t1 * (1.0 + 1e-12) and not final:
-                return
-            tk = min(tk, t1)
-            x = (tk - t0) / h
-            h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
-            d00, d10, d01, d11 = 6 * x**2 - 6 * x, 3 * x**2 - 4 * x + 1, -6 * x**2 + 6 * x, 3 * x**2 - 2 * x
-            self._append(
-                tk,
-                h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1,
-                (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1,
-                (1.0 - x) * f0 + x * f1,
-            )
-            n_next += 1
-            if final:
-                return
 
     def _append(self, t, q, v, f) -> None:
         self.t.append(float(t))
-        self.q.append(np.array(q, dtype=float))
-        self.v.append(np.array(v, dtype=float))
-        self.f.append(np.array(f, dtype=float))
+        self.q.append(q.copy())
+        self.v.append(v.copy())
+        self.f.append(f.copy())
 
     def arrays(self):
-        return np.array(self.t), np.array(self.q), np.array(self.v), np.array(self.f)
+        t, q, v, f = np.array(self.t), np.array(self.q), np.array(self.v), np.array(self.f)
+        if not self.adaptive or self.interval <= 0.0 or t.size < 2:
+            return t, q, v, f
+        n = int(np.floor(t[-1] / self.interval * (1.0 + 1e-12)))
+        ts = self.interval * np.arange(n + 1)
+        if ts[-1] < t[-1] * (1.0 - 1e-12):
+            ts = np.append(ts, t[-1])
+        i = np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 2)
+        h = (t[i + 1] - t[i])[:, None]
+        x = (ts - t[i])[:, None] / h
+        h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
+        d00, d10, d01, d11 = 6 * x**2 - 6 * x, 3 * x**2 - 4 * x + 1, -6 * x**2 + 6 * x, 3 * x**2 - 2 * x
+        q0, q1, v0, v1 = q[i], q[i + 1], v[i], v[i + 1]
+        qs = h00 * q0 + h10 * h * v0 + h01 * q1 + h11 * h * v1
+        vs = (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1
+        fs = (1.0 - x) * f[i] + x * f[i + 1]
+        return ts, qs, vs, fs
 
 
 def _resolve_impacts(

@@ -275,7 +275,10 @@ class Numerics(Section):
     section = "numerics"
     nx: int = quantity(201, "1", "grid nodes along each rail (taper + flat)", lo=16)
     nx_taper: int = quantity(
-        31, "1", "grid nodes on the taper, juncture included (fewer than 5 cannot resolve the taper)", lo=5
+        31,
+        "1",
+        "grid nodes on the taper, juncture included (0 = auto, 15 % of nx; fewer than 5 cannot resolve the taper)",
+        lo=0,
     )
     ny: int = quantity(21, "1", "grid nodes across each rail", lo=5)
     cluster_x: float = quantity(
@@ -343,11 +346,21 @@ class Numerics(Section):
             raise ParameterError(
                 f"numerics.table_nroll = {self.table_nroll} is not allowed: must be odd (roll = 0 is a node)"
             )
-        if self.nx - self.nx_taper + 1 < 11:
+        if 0 < self.nx_taper < 5:
+            raise ParameterError(
+                f"numerics.nx_taper = {self.nx_taper} is not allowed: must be 0 (auto) or >= 5 "
+                "(fewer nodes cannot resolve the taper)"
+            )
+        if self.nx - self.taper_nodes + 1 < 11:
             raise ParameterError(
                 f"numerics.nx_taper = {self.nx_taper} is not allowed with numerics.nx = {self.nx}: "
                 "the flat needs at least 11 nodes (nx - nx_taper + 1 >= 11)"
             )
+
+    @property
+    def taper_nodes(self) -> int:
+        """Nodes on the taper: nx_taper, or 15 % of the intervals (at least 5) when it is 0."""
+        return self.nx_taper if self.nx_taper > 0 else max(5, round(0.15 * (self.nx - 1)) + 1)
 
     @property
     def output_every(self) -> int:

@@ -311,6 +311,66 @@ def test_bisection_planner_sees_failed_probes_and_narrows_around_them(tmp_path):
     assert 5 in line["probed"] and len(taken) == line["runs"]
 
 
+# ----------------------------------------------------------------------------- multi-fidelity maps
+
+MULTI = '[multifidelity.cheap]\nmodels.air_bearing = "linearized"\n'
+
+
+def two_level_runner(full_boundary, cheap_boundary):
+    """Stand-in runs: the cheap level (linearized bearing) puts the boundary elsewhere than the full one."""
+
+    def run(scene_dict, run_id, impacts_kept):
+        c = scene_dict["contact"]
+        cheap = scene_dict["models"]["air_bearing"] == "linearized"
+        edge = (cheap_boundary if cheap else full_boundary)(c["mu"])
+        return {"run_id": run_id, "status": 0, "stable": int(c["alpha"] <= edge + 1e-12), "message": "level",
+                "wall_time": 0.0}  # fmt: skip
+
+    return run
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.1, 0.25])
+def test_multifidelity_map_equals_the_full_grid_and_reruns_few_cells(tmp_path, shift):
+    axes = MU_ALPHA.replace("values = [0.0, 0.5]", "start = 0.0\nstop = 1.0\nstep = 0.1").replace(
+        "start = 0.5\nstop = 1.0\nstep = 0.25", "start = 0.0\nstop = 1.0\nstep = 0.05"
+    )
+    path = write_study(tmp_path, axes, extra=MULTI)
+    runner = two_level_runner(lambda mu: 0.8 - 0.4 * mu, lambda mu: 0.8 - 0.4 * mu + shift)
+    full = run_study(load_study(path), tmp_path / "g.nc", workers=0, quiet=True, runner=runner,
+                     ledger_dir=tmp_path / "lg")  # fmt: skip
+    multi = run_study(load_study(path, mode="multifidelity"), tmp_path / "m.nc", workers=0, quiet=True,
+                      runner=runner, ledger_dir=tmp_path / "lm")  # fmt: skip
+    ds = multi.dataset
+    # the boundary-following waves recover the full model's map exactly
+    np.testing.assert_array_equal(ds["stable"].values, full.dataset["stable"].values)
+    # every re-run cell is a full-model run; the count of changed cells is that of the shifted band
+    band = int((ds["stable"].values != ds["stable_cheap"].values).sum())
+    assert ds.attrs["cells_changed"] == band
+    assert band == 0 if shift == 0.0 else band > 0
+    refined = int(ds["refined"].sum())
+    assert ds.attrs["cells_refined"] == refined
+    # 231 cheap runs + the refined cells: 2 cells per mu line when the cheap boundary is right,
+    # plus the band between the two boundaries and one cell either side otherwise
+    assert multi.computed == 231 + refined
+    assert refined <= 11 * 2 + band + 2 * 11, refined
+    # reading back: the multi-fidelity variables survive netCDF
+    back = xr.open_dataset(tmp_path / "m.nc")
+    assert int(back.attrs["cells_changed"]) == band and "stable_cheap" in back
+    back.close()
+
+
+def test_multifidelity_needs_a_cheap_table_that_changes_the_scene(tmp_path):
+    path = write_study(tmp_path, MU_ALPHA)
+    with pytest.raises(ConfigError, match="multifidelity"):
+        load_study(path, mode="multifidelity")
+    path = write_study(tmp_path, MU_ALPHA, extra='[multifidelity.cheap]\nmodels.air_bearing = "reynolds"\n')
+    with pytest.raises(ConfigError, match="does not change the scene"):
+        load_study(path)
+    path = write_study(tmp_path, MU_ALPHA, extra='[multifidelity.cheap]\nmodels.air_bearing = "table"\n')
+    with pytest.raises(ConfigError, match="air_bearing"):
+        load_study(path)
+
+
 # ----------------------------------------------------------------------------- real dask processes
 
 

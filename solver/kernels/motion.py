@@ -159,3 +159,14 @@ def verlet_step(
     for k in range(3):
         v[k] += 0.5 * s * acc[k]
     return its
+
+
+@njit
+def spacing_error(normals: np.ndarray, free: np.ndarray, dacc: np.ndarray, s: float) -> float:
+    """Verlet's local error in the free corners' spacing: max_c |n_c . (a_{n+1} - a_n)| s^2 / 6 [m]."""
+    worst = 0.0
+    for c in range(normals.shape[0]):
+        if free[c]:
+            d = abs(normals[c, 0] * dacc[0] + normals[c, 1] * dacc[1] + normals[c, 2] * dacc[2])
+            worst = max(worst, d)
+    return worst * s * s / 6.0
