@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -210,15 +211,15 @@ def errors(row: dict, ref: dict) -> dict:
 def observed_orders(sizes: list[float], errs: list[float]) -> list[float]:
     """p between consecutive members: log(e_i / e_i+1) / log(size_i / size_i+1) (size: h or dt)."""
     out = []
-    for (h1, e1), (h2, e2) in zip(zip(sizes, errs), zip(sizes[1:], errs[1:])):
+    for (h1, e1), (h2, e2) in itertools.pairwise(zip(sizes, errs, strict=True)):
         out.append(math.log(e1 / e2) / math.log(h1 / h2) if e1 > 0 and e2 > 0 else float("nan"))
     return out
 
 
 def cost_at_error(walls: list[float], errs: list[float], target: float) -> float:
     """Wall time at ``target`` error by log-log interpolation along a family (nan outside it)."""
-    pts = sorted((e, w) for e, w in zip(errs, walls) if e > 0 and np.isfinite(e))
-    for (e1, w1), (e2, w2) in zip(pts, pts[1:]):
+    pts = sorted((e, w) for e, w in zip(errs, walls, strict=True) if e > 0 and np.isfinite(e))
+    for (e1, w1), (e2, w2) in itertools.pairwise(pts):
         if e1 <= target <= e2:
             x = (math.log(target) - math.log(e1)) / (math.log(e2) - math.log(e1)) if e2 > e1 else 0.0
             return math.exp(math.log(w1) + x * (math.log(w2) - math.log(w1)))
@@ -259,7 +260,8 @@ def run_bench(args: argparse.Namespace) -> int:
         print(
             f"{case.family:34s} {case.label:14s} {row['wall_per_step'] * 1e3:8.4f} {row['wall_per_run']:7.3f} "
             f"{row['steps']:6d} {row['rejected_steps']:4d} {row['max_impulse_error']:14.2e} "
-            f"{row['impact_time_error'] * 1e9:8.3f} {row['steady_load_error'] * 100:8.3f} {row['steady_z_error'] * 100:7.3f} "
+            f"{row['impact_time_error'] * 1e9:8.3f} {row['steady_load_error'] * 100:8.3f} "
+            f"{row['steady_z_error'] * 100:7.3f} "
             f"{row['steady_pitch_error'] * 100:9.3f} {row['flying_error']:7.3f} "
             f"{'stable' if row['stable'] else 'unstable'}{' CHANGED' if row['classification_changed'] else ''}",
             flush=True,

@@ -235,8 +235,8 @@ def plot_work_precision(ds: xr.Dataset) -> Figure:
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
     families = list(dict.fromkeys(ds["family"].values.tolist()))
-    markers = dict(zip(families, "osD^v<>"))
-    colours = dict(zip(families, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
+    markers = dict(zip(families, "osD^v<>", strict=False))
+    colours = dict(zip(families, plt.rcParams["axes.prop_cycle"].by_key()["color"], strict=False))
     level_colours = {"quasi_static": "tab:purple", "linearized": "tab:brown"}
     recommended = ds.attrs.get("recommended_case", "")
     for ax, var, title in (
@@ -251,13 +251,13 @@ def plot_work_precision(ds: xr.Dataset) -> Figure:
             wall = sel["wall_per_run"].values.astype(float)
             err = np.maximum(sel[var].values.astype(float), 1e-7)
             if fam == "air-bearing level":
-                for w, e, lab in zip(wall, err, sel["case"].values):
+                for w, e, lab in zip(wall, err, sel["case"].values, strict=True):
                     ax.loglog(w, e, marker="X", ms=10, ls="none", color=level_colours.get(str(lab), "k"),
                               label=f"{lab} (built once per scene)")  # fmt: skip
                 continue
             order = np.argsort(wall)
             ax.loglog(wall[order], err[order], marker=markers[fam], color=colours[fam], label=fam)
-            for w, e, lab in zip(wall, err, sel["case"].values):
+            for w, e, lab in zip(wall, err, sel["case"].values, strict=True):
                 ax.annotate(str(lab), (w, e), fontsize=6.5, xytext=(3, 3), textcoords="offset points")
         if recommended and recommended in ds["case"].values and var != "time_error":
             r = ds.sel(case=recommended)
