@@ -26,11 +26,11 @@ def cluster_both_ends(n: int, strength: float) -> np.ndarray:
 
 
 def cluster_right_end(n: int, strength: float) -> np.ndarray:
-    """n points in [0, 1] clustered towards 1."""
+    """n points in [0, 1] clustered towards 1: x = tanh(k s) / tanh(k), whose slope is smallest at s = 1."""
     s = np.linspace(0.0, 1.0, n)
     if strength <= 0.0:
         return s
-    return 1.0 + np.tanh(strength * (s - 1.0)) / np.tanh(strength)
+    return np.tanh(strength * s) / np.tanh(strength)
 
 
 def control_volume_widths(x: np.ndarray) -> np.ndarray:
