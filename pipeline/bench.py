@@ -57,7 +57,7 @@ N_COMPARED = 3  # impulses compared (later impacts of a chaotic sequence drift a
 IMPULSE_TARGET = 0.01
 FLYING = {"zdot": -0.002, "pitch_rate": 0.0, "roll_rate": 0.0}
 #: grid and step of the time-step and fidelity families (the recommended grid)
-BASE_GRID = {"nx": 151, "nx_taper": 0, "ny": 15, "cluster_y": 2.0}
+BASE_GRID = {"nx": 201, "nx_taper": 0, "ny": 21, "cluster_y": 2.0}
 
 
 @dataclass

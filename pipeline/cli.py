@@ -21,6 +21,7 @@ from . import __version__
 DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "studies" / "scenes" / "benson1989.toml"
 RESULTS = Path(__file__).resolve().parent.parent / "results"
 FIG17_STUDY = Path(__file__).resolve().parent.parent / "studies" / "fig17.toml"
+CONVERGENCE_STUDY = FIG17_STUDY.with_name("convergence.toml")
 
 
 def _add_scene_args(p: argparse.ArgumentParser) -> None:
@@ -148,7 +149,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    """The main job, into results/: scene-1 steady flight, the source's two contact sequences, Figure 17.
+    """The main job, into results/: scene-1 flight, the source's two contact runs, Figure 17, convergence, bench.
 
     Figure 17 runs as the full grid and as a traced boundary, each with its own
     ledger so that both report their real cost; running reproduce again resumes
@@ -186,6 +187,25 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             _print_boundary(o.dataset)
         fig = plot_dataset(outcomes["grid"].dataset, outcomes["boundary"].dataset)
         print(f"wrote {save_figure(fig, out / 'fig17.png')}")
+        for path, mode, name in ((FIG17_STUDY, "multifidelity", "fig17_multifidelity"),
+                                 (CONVERGENCE_STUDY, "grid", "convergence")):  # fmt: skip
+            study = load_study(path, mode=mode)
+            print(f"\nstudy {name} ({mode})", flush=True)
+            o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers,
+                          quiet=args.quiet)  # fmt: skip
+            print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+                  f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+            if "refined" in o.dataset:
+                ds = o.dataset
+                print(f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with "
+                      f"the full scene; {ds.attrs['cells_changed']} changed class")  # fmt: skip
+            print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
+    if not args.skip_bench:
+        from .bench import run_bench
+
+        print("\nbenchmark: speed against error", flush=True)
+        run_bench(argparse.Namespace(scene=str(DEFAULT_SCENE), quick=False, repeats=3,
+                                     output=out / "bench_scene1.nc", figure=out / "work_precision.png"))  # fmt: skip
     print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -371,6 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--results", default=str(RESULTS), help="output folder (default: results/)")
     p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
     p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
+    p.add_argument("--skip-bench", action="store_true", help="leave out the benchmark (about 3 minutes)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)
     return parser

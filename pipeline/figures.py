@@ -182,6 +182,13 @@ def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Fig
             runs = int(osel["boundary_runs"].sum())
             ax.errorbar(overlay[xdim].values, mid, yerr=half, fmt="o", ms=3.5, color="tab:purple", capsize=3,
                         lw=1.2, label=f"bisection bracket ({runs} runs)")  # fmt: skip
+        if "refined" in cell:
+            refined = cell["refined"].transpose(ydim, xdim).values == 1
+            changed = refined & (cell["stable_cheap"].transpose(ydim, xdim).values != stable)
+            xx, yy = np.meshgrid(x, y)
+            ax.plot(xx[refined & ~changed], yy[refined & ~changed], "o", mfc="none", mec="k", ms=4, mew=0.7,
+                    label="re-run with the full scene")  # fmt: skip
+            ax.plot(xx[changed], yy[changed], "x", color="k", ms=5, mew=1.0, label="re-run, class changed")
         ran = int(np.count_nonzero(status != -2))
         title = ", ".join(f"{d} = {v:g} {ds[d].attrs.get('units', '')}" for d, v in sel.items())
         ax.set_title(f"{title}  ({ran} runs)" if title else f"{ran} runs", fontsize=10)

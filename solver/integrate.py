@@ -33,10 +33,11 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import nnls
 
 from .airbearing import ReynoldsFilm
 from .bearings import make_air_bearing
-from .contact import ContactError, Impact, SustainedContact, corner_normal, impact_map, surface_slope
+from .contact import ContactError, Impact, SustainedContact, corner_normal, surface_slope
 from .dynamics import mass_matrix
 from .geometry import corner_positions
 from .kernels import motion as km
@@ -101,7 +102,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     if np.any(start_gaps < -touch_tol):
         raise ContactError(f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)")
     contact = SustainedContact(scene, normals, minv, h0)
-    out = _Samples(q, v, f_air)
+    out = _Samples(q, v, f_air, num)
     impacts: list[Impact] = []
     stepper = _Stepper(num)
     status, message = 0, "reached t_end"
@@ -112,6 +113,15 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
             s_max = stepper.proposal(t)
             free = contact.free
             s_event, hit = km.first_event(normals[free], q, v, acc, h0, s_max)
+            if hit >= 0 and s_event == 0.0:  # touching and approaching now: resolve before any step
+                n_before, held_before = len(impacts), contact.held.copy()
+                v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
+                stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
+                if contact.any_held:
+                    km.accelerations(f_air, q, suspension, minv, acc)
+                    contact.apply_forces(acc, t)
+                out.after_impact(t, q, v, f_air)
+                continue
             event = hit >= 0 and s_event < s_max * (1.0 - 1e-12)
             s = s_event if event else s_max
             q_prev, v_prev, acc_prev, f_prev = q.copy(), v.copy(), acc.copy(), f_air.copy()
@@ -140,15 +150,11 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
                 raise ContactError(f"event location missed the asperity height by {gap_hit:.3g} m")
             n_before, held_before = len(impacts), contact.held.copy()
             v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
-            stalls = stalls + 1 if len(impacts) == n_before and (contact.held == held_before).all() else 0
-            if stalls > 100:
-                raise ContactError(
-                    f"contact events stall at t = {t:.6g} s: a corner grazes the asperities without impact "
-                    "(contact.rest_velocity = 0 turns the chattering rule off)"
-                )
+            stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
             if contact.any_held:
                 km.accelerations(f_air, q, suspension, minv, acc)
                 contact.apply_forces(acc, t)
+            out.after_impact(t, q, v, f_air)
             if len(impacts) >= scene.contact.max_impacts:
                 status = 1
                 message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
@@ -188,6 +194,17 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
         work=work,
         sustained=contact.intervals,
     )
+
+
+def _stalled(stalls: int, nothing_happened: bool, t: float) -> int:
+    """Count contact events in a row that changed nothing; a grazing corner with the rule off would loop."""
+    stalls = stalls + 1 if nothing_happened else 0
+    if stalls > 100:
+        raise ContactError(
+            f"contact events stall at t = {t:.6g} s: a corner grazes the asperities without impact "
+            "(contact.rest_velocity = 0 turns the chattering rule off)"
+        )
+    return stalls
 
 
 class _Stepper:
@@ -250,21 +267,25 @@ class _Samples:
     (q, v) between steps (linear for the film forces); with 0, every step.
     """
 
-    def __init__(self, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+    def __init__(self, q: np.ndarray, v: np.ndarray, f: np.ndarray, num) -> None:
         self.t, self.q, self.v, self.f = [0.0], [q.copy()], [v.copy()], [f.copy()]
-        self.adaptive = False
-        self.interval = 0.0
+        self.adaptive = num.time_step == "adaptive"
+        self.interval = num.output_interval
 
     def record(self, t0, t1, q0, v0, f0, q1, v1, f1, stepper: _Stepper) -> None:
         num = stepper.num
         if stepper.adaptive:
-            self.adaptive, self.interval = True, num.output_interval
             if t1 > self.t[-1]:
                 self._append(t1, q1, v1, f1)
             return
         k = stepper.k
         if t1 == k * stepper.dt and (k % num.output_every == 0 or k == stepper.n_grid):
             self._append(t1, q1, v1, f1)
+
+    def after_impact(self, t: float, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> None:
+        """Adaptive: the post-impact state at the impact instant, so that interpolation after it starts there."""
+        if self.adaptive and self.t[-1] == t:
+            self._append(t, q, v, f)
 
     def _append(self, t, q, v, f) -> None:
         self.t.append(float(t))
@@ -282,6 +303,7 @@ class _Samples:
             ts = np.append(ts, t[-1])
         i = np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 2)
         h = (t[i + 1] - t[i])[:, None]
+        h = np.where(h > 0.0, h, 1.0)  # an impact at the very end leaves a zero-length pair
         x = (ts - t[i])[:, None] / h
         h00, h10, h01, h11 = 2 * x**3 - 3 * x**2 + 1, x**3 - 2 * x**2 + x, -2 * x**3 + 3 * x**2, x**3 - x**2
         d00, d10, d01, d11 = 6 * x**2 - 6 * x, 3 * x**2 - 4 * x + 1, -6 * x**2 + 6 * x, 3 * x**2 - 2 * x
@@ -304,35 +326,67 @@ def _resolve_impacts(
     contact: SustainedContact,
     acc: np.ndarray,
 ) -> np.ndarray:
-    """Apply the impact map at every free corner touching the asperities and approaching them.
+    """Impacts at every free corner touching the asperities and approaching them, resolved together.
 
-    Corners touching at once (two rear corners at zero roll) are resolved one
-    after the other until none approaches (at most 8 passes).  An impact
-    that would rebound slower than ``contact.rest_velocity`` onto a pressed
-    corner starts sustained contact instead (:class:`SustainedContact`).
+    Corners that touch at once (the rear pair at zero roll) share one impact:
+    the impulses p >= 0 solve A p = (1 + alpha) w over the approaching set,
+    w_c = -n_c . v + eps_c V the relative approach velocities and
+    A_cd = n_c . M^-1 g_d (least-norm when the corners are dependent, as the
+    four corners of a level slider; corners whose impulse would pull are
+    dropped).  Symmetric contacts thus get symmetric impulses, and a lone
+    corner gets the single-corner law of :mod:`solver.contact` exactly.  A
+    corner whose rebound would be slower than ``contact.rest_velocity``
+    while pressed on is held instead (:class:`SustainedContact`): its target
+    is zero normal velocity.  Approach velocities below 1e-10 of the
+    corners' speed scale are round-off, not approaches.  Passes repeat
+    (at most 8) while an impulse makes another touching corner approach.
     """
-    touching = np.flatnonzero(np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol)
+    mu, alpha, V = scene.contact.mu, scene.contact.alpha, scene.disk.speed
+    touching = np.flatnonzero((np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol) & contact.free)
+    if touching.size == 0:
+        return v
+    slopes = np.array([surface_slope(scene, int(c), float(q[1])) for c in range(len(normals))])
+    response = contact.response
     for _ in range(8):
-        resolved = False
-        for c in touching:
-            if contact.held[c]:
-                continue
-            v_new, impulse = impact_map(q, v, int(c), scene, minv)
-            if impulse <= 0.0:
-                if contact.should_hold(int(c), v, acc):  # grazing: touches without approaching, pressed on
-                    v = contact.hold(int(c), v, t)[0]
-                    resolved = True
-                continue
-            if contact.should_hold(int(c), v_new, acc):
-                v_new, impulse = contact.hold(int(c), v, t)
-            elif contact.any_held:
-                v_new = contact.project_velocity(v_new, t)
-            u_before = -float(normals[c] @ v)
-            u_after = -float(normals[c] @ v_new)
-            wedge = surface_slope(scene, int(c), float(q[1])) * scene.disk.speed
-            impacts.append(Impact(t, int(c), impulse, u_before + wedge, u_after + wedge, u_before, u_after))
-            v = v_new
-            resolved = True
-        if not resolved:
+        gap_rates = normals @ v
+        w = -gap_rates + slopes * V
+        scale = float(np.abs(gap_rates).max() + np.abs(slopes).max() * V) + 1e-300
+        active = [int(c) for c in touching if w[c] > 1e-10 * scale and not contact.held[c]]
+        pressed = [int(c) for c in touching if not contact.held[c] and w[c] <= 1e-10 * scale]
+        grazing = [c for c in pressed if contact.should_hold(c, v, acc) and gap_rates[c] <= 0.0]
+        if not active and not grazing:
             break
+        hold = set(grazing)
+        for _attempt in range(2):
+            idx = np.array(active + sorted(hold - set(active)), dtype=int)
+            target = np.where(np.isin(idx, list(hold)), -gap_rates[idx], (1.0 + alpha) * w[idx])
+            A = normals[idx] @ response[idx].T
+            for G in np.diag(A):
+                if G <= 0.0:
+                    raise ContactError(
+                        f"friction mu = {mu} makes the impact indeterminate (n . M^-1 g = {G:.3g} <= 0, "
+                        "Painleve's paradox)"
+                    )
+            p = np.linalg.lstsq(A, target, rcond=1e-12)[0]
+            if p.min() < -1e-12 * max(float(np.abs(p).max()), 1e-300):
+                p = nnls(A, target)[0]
+            v_new = v + response[idx].T @ p
+            newly = {int(c) for c in idx if c not in hold and contact.should_hold(int(c), v_new, acc)}
+            if not newly:
+                break
+            hold |= newly
+        p_floor = 1e-12 * max(float(p.max()), 1e-300)
+        for c, pc in zip(idx, p, strict=True):
+            c = int(c)
+            if c in hold:
+                contact.held[c] = True
+                contact.since[c] = t
+            if pc > p_floor:
+                u_before = -float(gap_rates[c])
+                u_after = -float(normals[c] @ v_new)
+                wedge = slopes[c] * V
+                impacts.append(Impact(t, c, float(pc), u_before + wedge, u_after + wedge, u_before, u_after))
+        v = v_new
+        if contact.any_held:
+            v = contact.project_velocity(v, t)
     return v

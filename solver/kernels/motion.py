@@ -20,7 +20,11 @@ def first_crossing(gap0: float, rate: float, curvature: float, s_max: float) -> 
 
     Returns inf if there is none.  gap0 >= 0 is the spacing above the
     asperities [m]; rate its time derivative [m/s]; curvature its second.
+    A corner already touching (gap0 == 0) that approaches (rate < 0, or
+    rate == 0 and curvature < 0) returns 0: the event is now.
     """
+    if gap0 <= 0.0 and (rate < 0.0 or (rate == 0.0 and curvature < 0.0)):
+        return 0.0
     a = 0.5 * curvature
     b = rate
     c = gap0
