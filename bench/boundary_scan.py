@@ -26,7 +26,9 @@ def main(overrides: list[str]) -> None:
     for alpha in np.round(np.arange(0.0, 1.0001, 0.05), 2):
         scene = load_scene(DEFAULT_SCENE, [*overrides, f"contact.alpha={alpha}", "contact.mu=0.5"])
         r = simulate(scene, steady)
-        g = classify_impulses([i.impulse for i in r.impacts], [i.corner for i in r.impacts])
+        g = classify_impulses(
+            [i.impulse for i in r.impacts], [i.corner for i in r.impacts], [i.time for i in r.impacts]
+        )
         first_front = next((i.time * 1e6 for i in r.impacts if i.corner in (0, 2)), float("nan"))
         print(
             f"alpha {alpha:.2f}  {'stable  ' if g.stable else 'UNSTABLE'}  impacts {g.n_impacts:3d}  "

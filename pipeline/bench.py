@@ -167,7 +167,9 @@ def measure(case: Case, base: Scene, repeats: int) -> dict:
     contact, wall = _timed(scene, steady, repeats)
     flying_scene = _scene(base, case.numerics, case.model, **FLYING)
     flying, wall_fly = _timed(flying_scene, steady, max(1, repeats // 2))
-    growth = classify_impulses([i.impulse for i in contact.impacts], [i.corner for i in contact.impacts])
+    growth = classify_impulses(
+        [i.impulse for i in contact.impacts], [i.corner for i in contact.impacts], [i.time for i in contact.impacts]
+    )
     imp = contact.impacts[:N_COMPARED]
     w = contact.work
     return {

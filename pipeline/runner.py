@@ -69,6 +69,7 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
         growth = classify_impulses(
             [i.impulse for i in impacts],
             [i.corner for i in impacts],
+            [i.time for i in impacts],
         )
         record.update(growth.as_dict())
         record.update(

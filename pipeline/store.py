@@ -91,7 +91,7 @@ def run_summary(result: Result) -> dict[str, Any]:
     """Plain scalars of one run: classification, status and work (picklable, for studies)."""
     impulses = np.array([i.impulse for i in result.impacts])
     corners = np.array([i.corner for i in result.impacts], dtype=int)
-    growth = classify_impulses(impulses, corners)
+    growth = classify_impulses(impulses, corners, [i.time for i in result.impacts])
     return {**growth.as_dict(), "status": result.status, "message": result.message, **result.work}
 
 

@@ -58,7 +58,7 @@ def test_first_crossing_is_the_exact_downward_root(gap0, rate, curvature):
     if math.isinf(expected):
         assert math.isinf(s)
     else:
-        assert s == pytest.approx(expected, rel=8 * EPS)
+        assert s == pytest.approx(expected, rel=8 * EPS, abs=0)
         # the spacing at the root is zero to round-off of its terms
         terms = abs(gap0) + abs(rate * s) + abs(0.5 * curvature * s * s)
         assert abs(gap0 + rate * s + 0.5 * curvature * s * s) <= 8 * EPS * terms
@@ -79,7 +79,7 @@ def test_first_event_picks_the_earliest_corner():
     gaps, rates = normals @ q - h0, normals @ v
     times = np.where(rates < 0, -gaps / np.where(rates < 0, rates, -1.0), np.inf)
     assert corner == int(np.argmin(times))
-    assert s == pytest.approx(times.min(), rel=8 * EPS)
+    assert s == pytest.approx(times.min(), rel=8 * EPS, abs=0)
     assert km.first_event(normals, q, v, acc, h0, 0.5 * times.min()) == (math.inf, -1)
 
 
@@ -170,7 +170,7 @@ def test_chattering_without_the_rule_stops_on_the_impact_limit():
     assert r.status == 1
     assert "max_impacts" in r.message
     assert len(r.impacts) == 20 == r.work["impacts"]
-    assert r.impacts[-1].time == pytest.approx(times[-1], rel=1e-12)
+    assert r.impacts[-1].time == pytest.approx(times[-1], rel=1e-12, abs=0)
 
     scene, steady = bouncing_mass(t_end=60e-6, rest_velocity=0.0)
     r = simulate(scene, steady)
@@ -190,7 +190,7 @@ def test_output_samples_are_uniform_when_an_impact_lands_just_before_a_sample():
     dt = times[0] / (100.0 - 5e-4)
     scene = rigid_scene(t_end=12e-6, dt=dt, output_interval=dt)
     r = simulate(scene, steady)
-    assert r.impacts[0].time == pytest.approx(times[0], rel=1e-12)
+    assert r.impacts[0].time == pytest.approx(times[0], rel=1e-12, abs=0)
     n_grid = int(round(scene.numerics.t_end / dt))
     missing = sorted(set(range(n_grid + 1)) - set(np.round(r.t / dt).astype(int).tolist()))
     assert missing == [], f"no sample at t = k dt for k in {missing}"
@@ -236,7 +236,7 @@ def test_fly_balances_the_printed_suspension():
     scene = small_scene(calibration=Calibration(mode="none"))
     st = fly(scene)
     assert st.force_residual < 100 * scene.numerics.steady_tol
-    assert st.load == pytest.approx(scene.suspension.preload, rel=100 * scene.numerics.steady_tol)
+    assert st.load == pytest.approx(scene.suspension.preload, rel=100 * scene.numerics.steady_tol, abs=0)
     # no suspension moments: the centre of pressure sits under the gimbal
     assert abs(st.centre_of_pressure[0]) < 100 * scene.numerics.steady_tol * np.ptp(st.x1)
     assert abs(st.roll) < 1e-9 * st.pitch
@@ -267,7 +267,7 @@ def test_scene1_impacts(scene1_run):
         assert imp.impulse > 0.0
         assert imp.approach_before > 0.0
         # restitution acts on the relative normal velocity U + eps V (wedging included)
-        assert imp.approach_after == pytest.approx(-scene.contact.alpha * imp.approach_before, rel=1e-12)
+        assert imp.approach_after == pytest.approx(-scene.contact.alpha * imp.approach_before, rel=1e-12, abs=0)
     # between impacts the corners stay at or above the asperities
     assert r.min_spacing.min() >= scene.disk.asperity_height * (1.0 - 1e-9)
 

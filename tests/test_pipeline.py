@@ -92,6 +92,11 @@ def test_impulse_growth_classification():
     g = classify_impulses(np.array([1.0, 0.5, 1.2, 2.0]), np.array([3, 0, 2, 1]))
     assert (g.stable, g.n_larger_than_first, g.n_front_corner_impacts) == (0, 2, 2)
     assert g.max_impulse_ratio == pytest.approx(2.0)
+    # a shared impact (two corners at one instant) is one event: its shares, 1 ulp apart, are not growth
+    share = 2.550594979607706e-07
+    split = classify_impulses([share, np.nextafter(share, 1.0), 0.1 * share], [1, 3, 1], [1e-5, 1e-5, 2e-5])
+    assert split.stable == 1 and split.n_impacts == 3 and split.first_impulse == share + np.nextafter(share, 1.0)
+    assert classify_impulses([share, np.nextafter(share, 1.0)], [1, 3]).stable == 0  # without times: two records
     none = classify_impulses(np.array([]), np.array([], dtype=int))
     assert none.stable == 1 and none.n_impacts == 0 and math.isnan(none.first_impulse)
 
