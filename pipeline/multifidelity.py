@@ -6,8 +6,8 @@ step ...).  Waves:
 
 1. every cell with the cheap scene;
 2. every cell that differs in class from a neighbour (one step along any
-   axis) in the current map, and every failed cell, is re-run with the
-   study's own (full) scene;
+   axis listed in ``[multifidelity] axes``, default all) in the current
+   map, and every failed cell, is re-run with the study's own (full) scene;
 3. the map is updated with the full results; if that creates new class
    changes next to cells not yet re-run, they are re-run too, until no
    wave is left.
@@ -55,6 +55,8 @@ class MultiFidelityPlanner:
         if full_ids & self.cheap_ids:
             raise ValueError(f"{study.path}: [multifidelity.cheap] does not change the scene; nothing would be cheaper")
         self.shape = study.shape
+        keys = [a.key for a in study.axes]
+        self.neighbour_axes = [keys.index(k) for k in (study.multifidelity_axes or keys)]
         self.cheap_flags = np.full(self.shape, -2, dtype=np.int8)
         self.full_flags = np.full(self.shape, -2, dtype=np.int8)
         self.refined: set[tuple[int, ...]] = set()
@@ -98,7 +100,7 @@ class MultiFidelityPlanner:
         for ix in itertools.product(*(range(n) for n in self.shape)):
             if flags[ix] == -1:
                 wave.add(ix)
-            for axis in range(len(self.shape)):
+            for axis in self.neighbour_axes:
                 if ix[axis] + 1 < self.shape[axis]:
                     nb = ix[:axis] + (ix[axis] + 1,) + ix[axis + 1 :]
                     if flags[ix] != flags[nb]:

@@ -52,7 +52,7 @@ RUN_VARIABLES = (
 )
 ALLOWED = {
     "study": {"name", "title", "scene", "mode", "description"},
-    "multifidelity": {"cheap"},
+    "multifidelity": {"cheap", "axes"},
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
     "outputs": {"variables", "impacts"},
@@ -111,6 +111,7 @@ class Study:
     boundary: Boundary | None
     overrides: tuple[str, ...] = field(default=())
     multifidelity: dict[str, Any] | None = None  # scene keys of the cheap pass (mode multifidelity)
+    multifidelity_axes: tuple[str, ...] = ()  # axes along which cells are neighbours (default: all)
 
     @property
     def dims(self) -> tuple[str, ...]:
@@ -342,6 +343,7 @@ def load_study(
         raise _study_error(path, "mode = 'boundary'", "needs a [boundary] table (axis, tolerance)")
 
     cheap = None
+    cheap_axes: tuple[str, ...] = ()
     if "multifidelity" in data:
         mf = data["multifidelity"]
         _check_keys(path, "[multifidelity]", mf, ALLOWED["multifidelity"])
@@ -357,6 +359,17 @@ def load_study(
             raise _study_error(path, "[multifidelity.cheap]", str(err)) from None
         if apply_overrides(base, cheap, source=str(path)) == base:
             raise _study_error(path, "[multifidelity.cheap]", "does not change the scene")
+        neighbour_axes = mf.get("axes", [a.key for a in axes])
+        unknown = (
+            [k for k in neighbour_axes if k not in {a.key for a in axes}] if isinstance(neighbour_axes, list) else 1
+        )
+        if unknown or not neighbour_axes:
+            raise _study_error(
+                path,
+                "[multifidelity] axes",
+                f"{neighbour_axes!r} must list axes of the study ({[a.key for a in axes]})",
+            )
+        cheap_axes = tuple(neighbour_axes)
     if mode == "multifidelity" and cheap is None:
         raise _study_error(path, "mode = 'multifidelity'", "needs a [multifidelity.cheap] table of scene keys")
 
@@ -375,6 +388,7 @@ def load_study(
         boundary=boundary,
         overrides=tuple(cli),
         multifidelity=cheap,
+        multifidelity_axes=cheap_axes,
     )
     # Every value of every axis must make a valid scene on its own: check each axis value
     # against the base scene now, so that a bad value fails before any run.

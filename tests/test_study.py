@@ -369,6 +369,9 @@ def test_multifidelity_needs_a_cheap_table_that_changes_the_scene(tmp_path):
     path = write_study(tmp_path, MU_ALPHA, extra='[multifidelity.cheap]\nmodels.air_bearing = "table"\n')
     with pytest.raises(ConfigError, match="air_bearing"):
         load_study(path)
+    path = write_study(tmp_path, MU_ALPHA, extra='[multifidelity]\naxes = ["contact.nope"]\n' + MULTI)
+    with pytest.raises(ConfigError, match=r"\[multifidelity\] axes"):
+        load_study(path)
 
 
 # ----------------------------------------------------------------------------- real dask processes
