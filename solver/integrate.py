@@ -108,19 +108,29 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     status, message = 0, "reached t_end"
     t = 0.0
     stalls = 0
+
+    def impact_now() -> bool:
+        """Resolve the contacts at t (impacts, holds); True when the impact limit is reached."""
+        nonlocal v, stalls
+        n_before, held_before = len(impacts), contact.held.copy()
+        v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
+        stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
+        if contact.any_held:
+            km.accelerations(f_air, q, suspension, minv, acc)
+            contact.apply_forces(acc, t)
+        out.after_impact(t, q, v, f_air)
+        return len(impacts) >= scene.contact.max_impacts
+
     try:
         while not stepper.done(t):
             s_max = stepper.proposal(t)
             free = contact.free
             s_event, hit = km.first_event(normals[free], q, v, acc, h0, s_max)
             if hit >= 0 and s_event == 0.0:  # touching and approaching now: resolve before any step
-                n_before, held_before = len(impacts), contact.held.copy()
-                v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
-                stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
-                if contact.any_held:
-                    km.accelerations(f_air, q, suspension, minv, acc)
-                    contact.apply_forces(acc, t)
-                out.after_impact(t, q, v, f_air)
+                if impact_now():
+                    status = 1
+                    message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
+                    break
                 continue
             event = hit >= 0 and s_event < s_max * (1.0 - 1e-12)
             s = s_event if event else s_max
@@ -148,14 +158,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
             gap_hit = float(normals[c] @ q - h0)
             if abs(gap_hit) > touch_tol:
                 raise ContactError(f"event location missed the asperity height by {gap_hit:.3g} m")
-            n_before, held_before = len(impacts), contact.held.copy()
-            v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
-            stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
-            if contact.any_held:
-                km.accelerations(f_air, q, suspension, minv, acc)
-                contact.apply_forces(acc, t)
-            out.after_impact(t, q, v, f_air)
-            if len(impacts) >= scene.contact.max_impacts:
+            if impact_now():
                 status = 1
                 message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
                 break

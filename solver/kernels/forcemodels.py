@@ -64,6 +64,14 @@ def table_forces(
 
 
 @njit
+def kick_drift(s: float, q: np.ndarray, v: np.ndarray, acc: np.ndarray) -> None:
+    """Verlet's opening half kick and drift, in place."""
+    for k in range(3):
+        v[k] += 0.5 * s * acc[k]
+        q[k] += s * v[k]
+
+
+@njit
 def verlet_step_table(
     s: float,
     q: np.ndarray,
@@ -78,9 +86,7 @@ def verlet_step_table(
     ar: np.ndarray,
 ) -> int:
     """One Verlet step on the quasi-static table; returns 1 if the attitude left the table."""
-    for k in range(3):
-        v[k] += 0.5 * s * acc[k]
-        q[k] += s * v[k]
+    kick_drift(s, q, v, acc)
     outside = table_forces(q, table, az, ap, ar, f_air)
     accelerations(f_air, q, suspension, minv, acc)
     for k in range(3):
@@ -115,9 +121,7 @@ def verlet_step_linear(
     C: np.ndarray,
 ) -> int:
     """One Verlet step on the linearized bearing (implicit in the damping of the closing half kick)."""
-    for k in range(3):
-        v[k] += 0.5 * s * acc[k]
-        q[k] += s * v[k]
+    kick_drift(s, q, v, acc)
     zero = np.zeros(3)
     f_static = np.empty(3)
     linear_forces(q, zero, f_s, q_s, K, C, f_static)
