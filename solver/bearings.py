@@ -122,21 +122,36 @@ def symmetric_axis(centre: float, span: float, n: int, stretch: float = 3.0) -> 
     return centre + span * np.sinh(stretch * s) / np.sinh(stretch)
 
 
-class QuasiStaticTable:
-    """Steady film force and moments tabulated over (z, pitch, roll), interpolated during a run."""
+class ReducedBearing:
+    """Shared part of the reduced levels: the on-line film for steady flight and set-up, no film state."""
 
-    name = "quasi_static"
+    name = ""
 
     def __init__(self, scene: Scene) -> None:
         self.scene = scene
         self.film = ReynoldsFilm(scene)
         self.work = self.film.work
-        self.outside_steps = 0
         self.build_seconds = 0.0
 
     @property
     def reynolds(self) -> ReynoldsFilm:
         return self.film
+
+    def save(self) -> None:
+        """Nothing to keep: the force depends on the attitude (and velocity) only."""
+
+    def restore(self) -> None:
+        """Nothing to restore."""
+
+
+class QuasiStaticTable(ReducedBearing):
+    """Steady film force and moments tabulated over (z, pitch, roll), interpolated during a run."""
+
+    name = "quasi_static"
+
+    def __init__(self, scene: Scene) -> None:
+        super().__init__(scene)
+        self.outside_steps = 0
 
     def axes(self, q_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         n = self.scene.numerics
@@ -217,27 +232,11 @@ class QuasiStaticTable:
         )
         return 0
 
-    def save(self) -> None:
-        pass
 
-    def restore(self) -> None:
-        pass
-
-
-class LinearizedBearing:
+class LinearizedBearing(ReducedBearing):
     """Stiffness and damping of the film about steady flight: f = f_s - K (q - q_s) - C q'."""
 
     name = "linearized"
-
-    def __init__(self, scene: Scene) -> None:
-        self.scene = scene
-        self.film = ReynoldsFilm(scene)
-        self.work = self.film.work
-        self.build_seconds = 0.0
-
-    @property
-    def reynolds(self) -> ReynoldsFilm:
-        return self.film
 
     def coefficients(self, q_s: np.ndarray, periods: int = 3, steps_per_period: int = 200) -> dict[str, np.ndarray]:
         """K from central differences of steady solves; K and C at the lowest natural frequency.
@@ -313,12 +312,6 @@ class LinearizedBearing:
 
     def advance(self, s, q, v, acc, f_air, minv, suspension) -> int:
         return kf.verlet_step_linear(s, q, v, acc, f_air, minv, suspension, self.f_s, self.q_s, self.K, self.C)
-
-    def save(self) -> None:
-        pass
-
-    def restore(self) -> None:
-        pass
 
 
 AIR_BEARINGS = {
