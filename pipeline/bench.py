@@ -57,7 +57,7 @@ N_COMPARED = 3  # impulses compared (later impacts of a chaotic sequence drift a
 IMPULSE_TARGET = 0.01
 FLYING = {"zdot": -0.002, "pitch_rate": 0.0, "roll_rate": 0.0}
 #: grid and step of the time-step and fidelity families (the recommended grid)
-BASE_GRID = {"nx": 201, "nx_taper": 0, "ny": 21, "cluster_y": 2.0}
+BASE_GRID = {"nx": 101, "nx_taper": 0, "ny": 21, "cluster_y": 2.0}
 
 
 @dataclass
@@ -81,6 +81,10 @@ def families(quick: bool) -> list[Case]:
     for nx, ny in grids_clustered:
         num = {"nx": nx, "nx_taper": 0, "ny": ny, "cluster_y": 2.0, "dt": 1e-7}
         cases.append(Case("grid, clustered at the rail edges", f"{nx}x{ny} c", num))
+    # the nodes across the rail decide the error (studies/convergence.toml): refine them alone at nx = 101
+    for ny in [] if quick else [21, 31]:
+        num = {"nx": 101, "nx_taper": 0, "ny": ny, "cluster_y": 2.0, "dt": 1e-7}
+        cases.append(Case("grid across the rail at nx = 101, clustered", f"101x{ny} c", num))
     for dt in [0.4e-6, 0.2e-6] if quick else [0.8e-6, 0.4e-6, 0.2e-6, 0.1e-6, 0.05e-6]:
         cases.append(Case("fixed step", f"dt {dt * 1e6:g} us", {**BASE_GRID, "dt": dt}))
     for tol in [1e-11, 1e-12] if quick else [1e-10, 1e-11, 1e-12, 1e-13]:
