@@ -24,7 +24,8 @@ clustered at the rail edges, fixed time steps and adaptive tolerances on
 the recommended grid, and the three air-bearing levels.  The report prints
 the observed orders, compares fixed and adaptive stepping at equal error,
 and recommends the cheapest setting whose first impulses are within 1 %
-with the classification unchanged.
+with the classification unchanged (settings within 15 % of its cost count as
+ties, won by the smaller error: timings are noisy, errors are not).
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ from .store import var, write_netcdf
 
 N_COMPARED = 3  # impulses compared (later impacts of a chaotic sequence drift apart)
 IMPULSE_TARGET = 0.01
+COST_TIE = 1.15  # costs within this factor of the cheapest are ties (timing noise on a shared machine)
 FLYING = {"zdot": -0.002, "pitch_rate": 0.0, "roll_rate": 0.0}
 #: grid and step of the time-step and fidelity families (the recommended grid)
 BASE_GRID = {"nx": 101, "nx_taper": 0, "ny": 21, "cluster_y": 2.0}
@@ -347,14 +349,24 @@ def summarize(cases: list[Case], ref: dict, base: Scene, quick: bool) -> dict:
         and c.row["max_impulse_error"] <= IMPULSE_TARGET
         and not c.row["classification_changed"]
     ]
-    best = min(ok, key=lambda c: c.row["wall_per_run"]) if ok else None
-    report["recommended"] = best
-    if best is not None:
+    cheapest = min(ok, key=lambda c: c.row["wall_per_run"]) if ok else None
+    best = None
+    if cheapest is not None:
+        # wall times are noisy (+-15 % and more on a shared machine), errors are not: settings within
+        # COST_TIE of the cheapest are ties, and the most accurate of them is recommended
+        ties = [c for c in ok if c.row["wall_per_run"] <= COST_TIE * cheapest.row["wall_per_run"]]
+        best = min(ties, key=lambda c: c.row["max_impulse_error"])
         print(
-            f"\nrecommended (cheapest with the first {N_COMPARED} impulses within {IMPULSE_TARGET:.0%} and the "
-            f"classification unchanged): {best.family} {best.label}: {best.row['wall_per_run']:.3f} s/run, "
-            f"impulse error {best.row['max_impulse_error']:.2e}, numerics {best.numerics}"
+            f"\ncheapest with the first {N_COMPARED} impulses within {IMPULSE_TARGET:.0%} and the classification "
+            f"unchanged: {cheapest.family} {cheapest.label}: {cheapest.row['wall_per_run']:.3f} s/run, impulse error "
+            f"{cheapest.row['max_impulse_error']:.2e}"
         )
+        print(
+            f"recommended (most accurate within {COST_TIE:.2f}x of that cost): {best.family} {best.label}: "
+            f"{best.row['wall_per_run']:.3f} s/run, impulse error {best.row['max_impulse_error']:.2e}, "
+            f"numerics {best.numerics}"
+        )
+    report["recommended"] = best
     src = next((c for c in cases if c.label == "201x21"), None)
     src_scene = _scene(base, {"nx": 201, "nx_taper": 31, "ny": 21, "cluster_y": 0.0, "dt": 1e-7})
     per_step = sparse_direct_step_cost(src_scene)
