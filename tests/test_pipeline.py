@@ -21,7 +21,7 @@ SMALL = [
     "numerics.nx_taper=9",
     "numerics.ny=7",
     "numerics.t_end=30e-6",
-    "numerics.output_interval=0.5e-6",
+    "numerics.output_interval=0.4e-6",
 ]
 
 
