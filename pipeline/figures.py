@@ -226,7 +226,9 @@ def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
         return plot_run(ds)
     if "pressure" in ds:
         return plot_fly(ds)
-    raise ValueError("no figure fits this dataset (expected a run, a fly file or a study over two axes)")
+    if "family" in ds and "wall_per_run" in ds:
+        return plot_work_precision(ds)
+    raise ValueError("no figure fits this dataset (expected a run, a fly file, a study over two axes or a bench file)")
 
 
 def plot_work_precision(ds: xr.Dataset) -> Figure:

@@ -48,3 +48,5 @@ def test_quick_bench_writes_its_table_and_figure(tmp_path, monkeypatch):
     assert float(ds["baseline_wall_per_step"]) > 0 and ds["impulse_error"].attrs["units"] == "1"
     assert png.stat().st_size > 10_000
     ds.close()
+    again = tmp_path / "again.png"  # `hdi plot` knows a bench file
+    assert main(["plot", str(out), "-o", str(again)]) == 0 and again.stat().st_size > 10_000
