@@ -353,6 +353,12 @@ def test_multifidelity_map_equals_the_full_grid_and_reruns_few_cells(tmp_path, s
     # plus the band between the two boundaries and one cell either side otherwise
     assert multi.computed == 231 + refined
     assert refined <= 11 * 2 + band + 2 * 11, refined
+    # run again on the same ledger (as after an interruption): nothing is recomputed, the map is the same
+    again = run_study(load_study(path, mode="multifidelity"), tmp_path / "m2.nc", workers=0, quiet=True,
+                      runner=runner, ledger_dir=tmp_path / "lm")  # fmt: skip
+    assert again.computed == 0 and again.reused == multi.computed
+    np.testing.assert_array_equal(again.dataset["stable"].values, ds["stable"].values)
+    assert again.dataset.attrs["cells_changed"] == ds.attrs["cells_changed"]
     # reading back: the multi-fidelity variables survive netCDF
     back = xr.open_dataset(tmp_path / "m.nc")
     assert int(back.attrs["cells_changed"]) == band and "stable_cheap" in back
