@@ -1,0 +1,259 @@
+"""Rough-surface pressures per cell: Greenwood-Williamson contact and intermolecular adhesion.
+
+A cell of the slider face sees the local mean plane of the disk at the
+separation ``d`` [m]; the disk heights z about that plane are Gaussian with
+standard deviation ``sigma`` [m] (``sigma = 0``: a smooth disk).  ``eps`` [m]
+is the intermolecular equilibrium spacing.  Positive pressure pushes the
+slider away from the disk (repulsion); adhesion is negative.
+
+Contact (Greenwood-Williamson with a repulsive wall at ``eps``): a summit of
+height z is compressed by z - (d - eps) when that is positive, and Hertz gives
+
+    p_c(d) = gw_coef sigma^(3/2) F_{3/2}(t),   t = (d - eps) / sigma,
+    dp_c/dd = -(3/2) gw_coef sigma^(1/2) F_{1/2}(t),
+
+with ``gw_coef = (4/3) eta_s E' sqrt(R)`` and the standardized integrals
+
+    F_n(t) = int_t^inf (s - t)^n phi(s) ds,   dF_n/dt = -n F_{n-1},
+
+phi the standard normal density.  Smooth limit: p_c = gw_coef max(eps - d, 0)^(3/2).
+
+Adhesion (Lennard-Jones flat-flat law over the part of the disk farther than
+``eps`` from the slider), with h = d - z the local gap:
+
+    p_LJ(h) = adh_coef [(eps/h)^9 - (eps/h)^3],   adh_coef = 8 dgamma / (3 eps),
+    p_a(d) = int_eps^inf p_LJ(h) phi_sigma(d - h) dh,
+    dp_a/dd = int_eps^inf p_LJ'(h) phi_sigma(d - h) dh,
+
+(the boundary term of the derivative vanishes because p_LJ(eps) = 0).
+Smooth limit: p_a = p_LJ(d) for d >= eps, else 0.
+
+How the integrals are evaluated
+-------------------------------
+``F_{1/2}``, ``F_{3/2}`` come from piecewise Chebyshev series (degree
+``CHEB_DEGREE`` on unit intervals) built once at import: of F_n itself on
+[T_ASYMPTOTIC, 0] and of F_n / phi on [0, T_ZERO] (which keeps the relative
+accuracy where F_n decays like phi(t) t^(-n-1)).  The nodal values come from
+the substitution s - t = v^2,
+
+    F_n(t) = int_-inf^inf |v|^(2n+1) phi(v^2 + t) dv,
+
+whose integrand is smooth and decays like exp(-v^4 / 2), so the trapezoidal
+rule converges geometrically (step 0.01: round-off level).  Below
+T_ASYMPTOTIC the expansion F_n(t) = a^n sum_k binom(n, 2k) (2k-1)!! a^(-2k),
+a = -t, (exponentially small remainder) is used, and above T_ZERO,
+phi(t) underflows and F_n = 0.  Measured: relative error < 2e-14 everywhere.
+
+The adhesion integral, in t = (d - eps) / sigma:
+
+* t >= N_SIGMA (the whole distribution beyond the wall, sigma / d < 1/8.5):
+  10-point Gauss-Hermite, p_a = E[p_LJ(d - sigma Z)];
+* TAU_NO_ADHESION <= t < N_SIGMA: composite 12-point Gauss-Legendre panels
+  in h from eps to d + sigma sqrt(min(t, 0)^2 + 2 GAUSS_TAIL) (where the
+  Gaussian weight has fallen by exp(-GAUSS_TAIL) from its largest value on
+  h >= eps), each panel at most PANEL_SIGMAS sigma wide (the Gaussian) and
+  PANEL_GROWTH times its start h wide (the steep power laws near the wall);
+* t < TAU_NO_ADHESION or d - N_SIGMA sigma > LJ_RANGE eps: |p_a| < 1e-12
+  adh_coef, returned as 0.
+
+The slope uses the same nodes with p_LJ'.  Measured against quad for sigma
+from 1e-12 to 2e-9 m (eps = 0.3 nm): p_a within 3e-8 relative (within
+7e-8 where |p_a| < 1e-10 adh_coef), dp_a/dd within 7e-8 of its largest
+magnitude; 12 to 84 integrand evaluations per cell near the wall (mean 43
+for sigma = 0.2 nm, 56 for 0.6 nm).  The panel edges do not move with d
+(only the last one does), so the computed p_a is continuous in d except for
+steps of the size of the quadrature error where the panel count changes
+and at t = N_SIGMA.
+
+The tables and quadrature nodes are module globals, which numba freezes
+into the compiled code as constants (they are C-contiguous and small, so
+the functions stay cacheable).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.polynomial import chebyshev, hermite_e, legendre
+
+from ..jit import njit
+
+#: Degree of the Chebyshev series on each unit interval of t.
+CHEB_DEGREE = 14
+#: Below this t the large-negative-t expansion of F_n is used.
+T_ASYMPTOTIC = -10.0
+#: Above this t, F_n < phi(t) underflows: F_n = 0.
+T_ZERO = 40.0
+#: Adhesion by Gauss-Hermite when the wall lies this many sigma below the mean plane (tail mass 1e-17).
+N_SIGMA = 8.5
+#: Near-wall panels end where the Gaussian weight has dropped by exp(-GAUSS_TAIL) from its largest value.
+GAUSS_TAIL = 32.0
+#: No adhesion below this t = (d - eps) / sigma: |p_a| < 0.385 adh_coef P(Z > -t) < 1e-12 adh_coef.
+TAU_NO_ADHESION = -6.9
+#: Near-wall adhesion panels: width <= PANEL_SIGMAS sigma and <= PANEL_GROWTH h.
+PANEL_SIGMAS = 4.0
+PANEL_GROWTH = 1.5
+#: A remainder narrower than this fraction of the panel before it is merged into that panel.
+PANEL_MERGE = 0.25
+#: Beyond this many eps the LJ law is below 1e-12 of adh_coef: no adhesion.
+LJ_RANGE = 1.0e4
+
+_SQRT_2PI = math.sqrt(2.0 * math.pi)
+_ORDERS = (1.5, 0.5)
+
+
+def _nodal_integrals(t: np.ndarray, scaled: bool) -> np.ndarray:
+    """F_{3/2}, F_{1/2} (or F_n / phi when ``scaled``) at t by the trapezoidal rule in v; shape (2,) + t.shape."""
+    step = 0.01
+    v2 = (step * np.arange(1, 1400)) ** 2
+    tt = np.asarray(t, dtype=float)[..., None]
+    if scaled:
+        weight = np.exp(-0.5 * v2 * (v2 + 2.0 * tt))
+    else:
+        weight = np.exp(-0.5 * (v2 + tt) ** 2) / _SQRT_2PI
+    return np.stack([2.0 * step * np.sum(v2 ** (n + 0.5) * weight, axis=-1) for n in _ORDERS])
+
+
+def _chebyshev_table(lo: float, hi: float, scaled: bool) -> np.ndarray:
+    """Coefficients (n_intervals, 2, CHEB_DEGREE + 1) of F_{3/2}, F_{1/2} on the unit intervals of [lo, hi]."""
+    starts = np.arange(lo, hi)
+    x = np.cos(np.pi * (np.arange(CHEB_DEGREE + 1) + 0.5) / (CHEB_DEGREE + 1))
+    values = _nodal_integrals(starts[:, None] + 0.5 * (x + 1.0), scaled)
+    vandermonde = chebyshev.chebvander(x, CHEB_DEGREE)
+    coefficients = [np.linalg.solve(vandermonde, values[k].T).T for k in range(2)]
+    return np.ascontiguousarray(np.stack(coefficients, axis=1))
+
+
+def _asymptotic_coefficients(n_terms: int) -> np.ndarray:
+    """binom(n, 2k) (2k-1)!! for n = 3/2, 1/2 and k < n_terms; shape (2, n_terms)."""
+    out = np.empty((2, n_terms))
+    for row, n in enumerate(_ORDERS):
+        binom = 1.0
+        double_factorial = 1.0
+        for k in range(n_terms):
+            out[row, k] = binom * double_factorial
+            binom *= (n - 2 * k) * (n - 2 * k - 1) / ((2 * k + 1) * (2 * k + 2))
+            double_factorial *= 2 * k + 1
+    return out
+
+
+_CHEB_NEGATIVE = _chebyshev_table(T_ASYMPTOTIC, 0.0, scaled=False)
+_CHEB_POSITIVE = _chebyshev_table(0.0, T_ZERO, scaled=True)
+_ASYMPTOTIC = _asymptotic_coefficients(14)
+_GL_NODES, _GL_WEIGHTS = legendre.leggauss(12)
+_GH_NODES, _GH_WEIGHTS = hermite_e.hermegauss(10)
+_GH_WEIGHTS = _GH_WEIGHTS / _SQRT_2PI
+
+
+@njit
+def _clenshaw_pair(coef: np.ndarray, x: float) -> tuple[float, float]:
+    """Both Chebyshev series of ``coef`` (2, degree + 1) at x in [-1, 1]."""
+    b1a = 0.0
+    b2a = 0.0
+    b1b = 0.0
+    b2b = 0.0
+    x2 = 2.0 * x
+    for k in range(coef.shape[1] - 1, 0, -1):
+        b1a, b2a = x2 * b1a - b2a + coef[0, k], b1a
+        b1b, b2b = x2 * b1b - b2b + coef[1, k], b1b
+    return x * b1a - b2a + coef[0, 0], x * b1b - b2b + coef[1, 0]
+
+
+@njit
+def gw_integrals(t: float) -> tuple[float, float]:
+    """F_{3/2}(t) and F_{1/2}(t), F_n(t) = int_t^inf (s - t)^n phi(s) ds; relative error < 2e-14."""
+    if t < T_ASYMPTOTIC:
+        inv_a2 = 1.0 / (t * t)
+        sum32 = 0.0
+        sum12 = 0.0
+        for k in range(_ASYMPTOTIC.shape[1] - 1, -1, -1):
+            sum32 = sum32 * inv_a2 + _ASYMPTOTIC[0, k]
+            sum12 = sum12 * inv_a2 + _ASYMPTOTIC[1, k]
+        root = math.sqrt(-t)
+        return -t * root * sum32, root * sum12
+    if t < 0.0:
+        k = min(int(t - T_ASYMPTOTIC), _CHEB_NEGATIVE.shape[0] - 1)
+        x = 2.0 * (t - T_ASYMPTOTIC - k) - 1.0
+        return _clenshaw_pair(_CHEB_NEGATIVE[k], x)
+    if t < T_ZERO:
+        k = int(t)
+        x = 2.0 * (t - k) - 1.0
+        f32, f12 = _clenshaw_pair(_CHEB_POSITIVE[k], x)
+        phi = math.exp(-0.5 * t * t) / _SQRT_2PI
+        return f32 * phi, f12 * phi
+    if t >= T_ZERO:
+        return 0.0, 0.0
+    return t, t  # nan in, nan out
+
+
+@njit
+def lj_pressure(h: float, eps: float, adh_coef: float) -> tuple[float, float]:
+    """Flat-flat Lennard-Jones pressure adh_coef [(eps/h)^9 - (eps/h)^3] [Pa] and its slope d/dh [Pa/m]."""
+    u = eps / h
+    u3 = u * u * u
+    u9 = u3 * u3 * u3
+    return adh_coef * (u9 - u3), adh_coef * (3.0 * u3 - 9.0 * u9) / h
+
+
+@njit
+def contact_pressure(d: float, sigma: float, eps: float, gw_coef: float) -> tuple[float, float]:
+    """Greenwood-Williamson pressure p_c [Pa] and dp_c/dd [Pa/m] of one cell."""
+    if sigma > 0.0:
+        f32, f12 = gw_integrals((d - eps) / sigma)
+        root = math.sqrt(sigma)
+        return gw_coef * sigma * root * f32, -1.5 * gw_coef * root * f12
+    if d < eps:
+        root = math.sqrt(eps - d)
+        return gw_coef * (eps - d) * root, -1.5 * gw_coef * root
+    return 0.0, 0.0
+
+
+@njit
+def adhesion_pressure(d: float, sigma: float, eps: float, adh_coef: float) -> tuple[float, float]:
+    """Adhesion pressure p_a [Pa] (<= 0) and dp_a/dd [Pa/m] of one cell."""
+    if sigma <= 0.0:
+        if d < eps:
+            return 0.0, 0.0
+        return lj_pressure(d, eps, adh_coef)
+    tau = (d - eps) / sigma
+    if tau < TAU_NO_ADHESION or d - N_SIGMA * sigma > LJ_RANGE * eps:
+        return 0.0, 0.0
+    p = 0.0
+    slope = 0.0
+    if tau >= N_SIGMA:
+        for k in range(_GH_NODES.size):
+            pk, sk = lj_pressure(d - sigma * _GH_NODES[k], eps, adh_coef)
+            p += _GH_WEIGHTS[k] * pk
+            slope += _GH_WEIGHTS[k] * sk
+        return p, slope
+    # beyond h_hi the Gaussian weight is below exp(-GAUSS_TAIL) of its largest value on h >= eps
+    h_hi = d + sigma * math.sqrt(min(tau, 0.0) ** 2 + 2.0 * GAUSS_TAIL)
+    start = eps
+    inv_sigma = 1.0 / sigma
+    while start < h_hi:
+        end = start + min(PANEL_SIGMAS * sigma, PANEL_GROWTH * start)
+        if end > h_hi - PANEL_MERGE * (end - start):
+            end = h_hi
+        half = 0.5 * (end - start)
+        mid = 0.5 * (end + start)
+        for k in range(_GL_NODES.size):
+            h = mid + half * _GL_NODES[k]
+            s = (d - h) * inv_sigma
+            w = half * _GL_WEIGHTS[k] * math.exp(-0.5 * s * s)
+            pk, sk = lj_pressure(h, eps, adh_coef)
+            p += w * pk
+            slope += w * sk
+        start = end
+    norm = inv_sigma / _SQRT_2PI
+    return p * norm, slope * norm
+
+
+@njit
+def surface_pressures(
+    d: np.ndarray, sigma: np.ndarray, eps: float, gw_coef: float, adh_coef: float, out: np.ndarray
+) -> None:
+    """Fill ``out`` (4, n) with p_c, dp_c/dd, p_a, dp_a/dd per cell for separations d (n,) and roughness sigma (n,)."""
+    for i in range(d.size):
+        out[0, i], out[1, i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
+        out[2, i], out[3, i] = adhesion_pressure(d[i], sigma[i], eps, adh_coef)
