@@ -47,6 +47,8 @@ def cmd_fly(args: argparse.Namespace) -> int:
     from .store import fly_dataset, write_netcdf
 
     scene = load_scene(args.scene, args.overrides)
+    if scene.kind == "abs":
+        return _fly_abs(scene, args)
     t0 = time.perf_counter()
     steady = fly(scene)
     wall = time.perf_counter() - t0
@@ -84,6 +86,82 @@ def cmd_fly(args: argparse.Namespace) -> int:
         fig = plot_fly(open_result(args.output)) if args.output else _fly_fig(steady, scene)
         print(f"wrote {save_figure(fig, args.plot)}")
     return 0
+
+
+def _fly_abs(scene, args: argparse.Namespace) -> int:
+    from solver.film import AbsFilm
+    from solver.partial import fly_abs
+
+    from .absstore import abs_fly_dataset
+    from .store import write_netcdf
+
+    film = AbsFilm(scene)
+    steady = fly_abs(scene, film)
+    sf = steady.surface
+    nx, ny = film.shape
+    print(f"scene {scene.name}: {scene.slider.length * 1e3:.2f} x {scene.slider.width * 1e3:.2f} mm, "
+          f"trailing pad {scene.slider.trailing_pad_width * 1e6:.0f} um, "
+          f"preload {scene.suspension.preload * 1e3:.3f} mN, "
+          f"{scene.disk.speed:.2f} m/s, skew {scene.disk.skew} deg, slip {scene.models.slip}")  # fmt: skip
+    print(f"  flying height      {steady.element_spacing * 1e9:.4f} nm at the element "
+          f"(x = {scene.slider.element_x * 1e3:.3f} mm, y = {scene.slider.element_y * 1e3:.3f} mm)")  # fmt: skip
+    print(f"  pitch              {steady.q[1] * 1e6:.3f} urad")
+    print(f"  roll               {steady.q[2] * 1e6:.4f} urad")
+    print(f"  z at the pivot     {steady.q[0] * 1e9:.3f} nm")
+    print(f"  minimum spacing    {steady.min_spacing * 1e9:.4f} nm at x = {steady.min_spacing_x * 1e3:.4f} mm, "
+          f"y = {steady.min_spacing_y * 1e3:.4f} mm")  # fmt: skip
+    print(f"  air-bearing force  {steady.air_force[0] * 1e3:.5f} mN")
+    print(f"  contact force      {sf.contact * 1e3:.6f} mN, adhesion {sf.adhesion * 1e3:.6f} mN "
+          f"(RMS {scene.disk.rms * 1e9:g} nm, delta_gamma {scene.contact.delta_gamma} J/m2)")  # fmt: skip
+    print(f"  work               grid {nx} x {ny}, {steady.iterations} attitude iterations, "
+          f"{steady.reynolds_solves} sparse Reynolds solves, {steady.wall_time:.2f} s")  # fmt: skip
+    ds = abs_fly_dataset(steady, scene, film.grid.depth)
+    if args.output:
+        print(f"wrote {write_netcdf(ds, args.output)}")
+    if args.plot:
+        from .absfigures import plot_abs_fly
+        from .figures import save_figure
+
+        print(f"wrote {save_figure(plot_abs_fly(ds), args.plot)}")
+    return 0
+
+
+def simulate_abs_scene(scene, output: Path | None, plot: Path | None, quiet: bool = False):
+    """Fly, run over the moving track, print the bouncing and contact measures, write files."""
+    from solver.partial import simulate_abs
+
+    from .absstore import abs_run_dataset
+    from .runner import abs_profile
+    from .store import write_netcdf
+
+    result = simulate_abs(scene, profile=abs_profile(scene))
+    ds = abs_run_dataset(result, scene)
+    if not quiet:
+        c, d = scene.contact, scene.disk
+        print(f"scene {scene.name}: pad {scene.slider.trailing_pad_width * 1e6:.0f} um, RMS {d.rms * 1e9:g} nm, "
+              f"delta_gamma {c.delta_gamma} J/m2, mu {c.mu}, preload {scene.suspension.preload * 1e3:.3f} mN, "
+              f"t_end {scene.numerics.t_end * 1e3:g} ms")  # fmt: skip
+        print(f"  status {result.status}: {result.message}")
+        print(f"  steady flying height {float(ds['steady_flying_height']) * 1e9:.4f} nm")
+        print(f"  bouncing 3 sigma     {float(ds['bouncing_3sigma']) * 1e9:.4f} nm "
+              f"(mean FH {float(ds['mean_flying_height']) * 1e9:.4f} nm)")  # fmt: skip
+        print(f"  mean contact force   {float(ds['mean_contact_force']) * 1e3:.5f} mN "
+              f"(max {float(ds['max_contact_force']) * 1e3:.4f} mN), contact fraction "
+              f"{float(ds['contact_fraction']):.3f}")  # fmt: skip
+        print(f"  spectral peaks       FH {float(ds['fh_peak_frequency']) * 1e-3:.1f} kHz, pitch "
+              f"{float(ds['pitch_peak_frequency']) * 1e-3:.1f} kHz, "
+              f"roll {float(ds['roll_peak_frequency']) * 1e-3:.1f} kHz")  # fmt: skip
+        w = result.work
+        print(f"  work: {w['steps']} steps on {w['nodes']} nodes, {w['newton_iterations']} Newton iterations, "
+              f"{w['wall_time']:.2f} s ({w['wall_time'] / max(w['steps'], 1) * 1e3:.3f} ms/step)")  # fmt: skip
+    if output:
+        print(f"wrote {write_netcdf(ds, output)}")
+    if plot:
+        from .absfigures import plot_abs_run
+        from .figures import save_figure
+
+        print(f"wrote {save_figure(plot_abs_run(ds), plot)}")
+    return ds
 
 
 def _fly_fig(steady, scene):
@@ -134,7 +212,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from .config import load_scene
 
     scene = load_scene(args.scene, args.overrides)
-    simulate_scene(scene, args.output, args.plot)
+    if scene.kind == "abs":
+        simulate_abs_scene(scene, args.output, args.plot)
+    else:
+        simulate_scene(scene, args.output, args.plot)
     return 0
 
 

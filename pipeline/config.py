@@ -13,7 +13,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from solver.params import SECTIONS, ParameterError, Scene, field_metadata, scene_from_dict
+from solver.params import ParameterError, Scene, field_metadata, scene_from_dict, sections_of
 
 
 class ConfigError(ParameterError):
@@ -36,26 +36,31 @@ def parse_override(text: str) -> tuple[str, Any]:
 def apply_overrides(data: dict[str, Any], overrides: list[str] | dict[str, Any], *, source: str) -> dict[str, Any]:
     """Set dotted keys in a nested scene dict; an unknown key is an error naming it."""
     out = copy.deepcopy(data)
+    kind = data.get("kind", "rails")
+    try:
+        sections = sections_of(kind)
+    except ParameterError as err:
+        raise ConfigError(f"{source}: {err}") from None
     items = overrides.items() if isinstance(overrides, dict) else (parse_override(o) for o in overrides)
     for key, value in items:
         section, _, name = key.partition(".")
         if not name:
-            raise ConfigError(f"{source}: key {key!r} must be SECTION.NAME (sections: {', '.join(SECTIONS)})")
+            raise ConfigError(f"{source}: key {key!r} must be SECTION.NAME (sections: {', '.join(sections)})")
         try:
-            field_metadata(key)
+            field_metadata(key, kind)
         except ParameterError as err:
             raise ConfigError(f"{source}: {err}") from None
         if isinstance(value, int) and not isinstance(value, bool):
-            meta_default = type(_default_of(key))
+            meta_default = type(_default_of(key, kind))
             if meta_default is float:
                 value = float(value)
         out.setdefault(section, {})[name] = value
     return out
 
 
-def _default_of(key: str) -> Any:
+def _default_of(key: str, kind: str = "rails") -> Any:
     section, _, name = key.partition(".")
-    return getattr(SECTIONS[section](), name)
+    return getattr(sections_of(kind)[section](), name)
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
@@ -86,6 +91,8 @@ def _toml_value(value: Any) -> str:
         return json.dumps(value)
     if isinstance(value, list | tuple):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + "}"
     raise TypeError(f"cannot write {value!r} as TOML")
 
 

@@ -220,6 +220,14 @@ def _draw_boundary(ax, x: np.ndarray, cell: xr.Dataset, colour: str, label: str)
 
 def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
     """The figure that fits a dataset written by this project."""
+    if "bouncing_3sigma" in ds and "study" in ds.attrs:
+        from .absfigures import plot_abs_study
+
+        return plot_abs_study(ds)
+    if ds.attrs.get("scene_kind") == "abs":
+        from .absfigures import plot_abs_fly, plot_abs_run
+
+        return plot_abs_run(ds) if "time" in ds.dims else plot_abs_fly(ds)
     if "study" in ds.attrs and "stable" in ds and ds["stable"].ndim >= 2:
         return plot_stability_map(ds, overlay)
     if "impact_time" in ds and "time" in ds.dims:

@@ -58,6 +58,8 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
 
     wall0 = time.perf_counter()
     record: dict[str, Any] = {"run_id": run_id, "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    if scene_dict.get("kind") == "abs":
+        return _run_abs_case(scene_dict, run_id, record, wall0)
     try:
         from solver.integrate import simulate
 
@@ -91,6 +93,72 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
             message=f"{type(err).__name__}: {err}",
             traceback=traceback.format_exc(limit=6),
         )
+    record["wall_time"] = time.perf_counter() - wall0
+    return record
+
+
+#: Keys of an "abs" scene that do not change its steady flight.
+_ABS_NOT_STEADY = {
+    "initial": None,
+    "numerics": ("dt", "t_end", "settle_time", "output_interval", "newmark_beta", "newmark_gamma",
+                 "newton_tol", "newton_max_iter", "contact_threshold"),
+    "disk": ("correlation_length", "acf", "seed", "profile_file", "profile_spacing"),
+}  # fmt: skip
+_abs_steady_cache: dict[str, Any] = {}
+
+#: Time series of an "abs" run kept in a study's record (and so in its dataset), every SERIES_EVERY samples.
+ABS_SERIES = ("flying_height", "contact_force")
+
+
+def abs_steady_key(scene_dict: dict[str, Any]) -> str:
+    data = {}
+    for section, value in scene_dict.items():
+        drop = _ABS_NOT_STEADY.get(section, ())
+        if drop is None:
+            continue
+        data[section] = {k: v for k, v in value.items() if k not in drop} if isinstance(value, dict) else value
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def abs_profile(scene):
+    """The measured track profile of a scene (None for a synthetic one): read in the pipeline, not the solver."""
+    if not scene.disk.profile_file:
+        return None
+    from .profiles import read_profile
+
+    return read_profile(scene.disk.profile_file)
+
+
+def _run_abs_case(scene_dict: dict[str, Any], run_id: str, record: dict[str, Any], wall0: float) -> dict[str, Any]:
+    from solver.params import scene_from_dict
+
+    try:
+        from solver.partial import fly_start, simulate_abs, summarize
+
+        scene = scene_from_dict(scene_dict, source=f"run {run_id}")
+        key = abs_steady_key(scene.to_dict())
+        if key not in _abs_steady_cache:
+            if len(_abs_steady_cache) > 8:
+                _abs_steady_cache.clear()
+            _abs_steady_cache[key] = fly_start(scene)
+        steady = _abs_steady_cache[key]
+        result = simulate_abs(scene, steady=steady, profile=abs_profile(scene))
+        record.update(summarize(result, scene))
+        record.update(
+            status=int(result.status),
+            message=result.message,
+            steps=int(result.work["steps"]),
+            newton_iterations=int(result.work["newton_iterations"]),
+            steady_flying_height=steady.element_spacing,
+            steady_pitch=float(steady.q[1]),
+            steady_roll=float(steady.q[2]),
+            steady_contact_force=steady.surface.contact,
+            steady_note=steady.note,
+            series={"time": result.t.tolist(), **{k: result.series[k].tolist() for k in ABS_SERIES}},
+        )
+    except Exception as err:  # a failing run is a result, never the end of the study
+        log.warning("run %s failed: %s", run_id, err)
+        record.update(status=-1, message=f"{type(err).__name__}: {err}", traceback=traceback.format_exc(limit=6))
     record["wall_time"] = time.perf_counter() - wall0
     return record
 

@@ -50,6 +50,29 @@ RUN_VARIABLES = (
     "newton_iterations",
     "wall_time",
 )
+#: Per-run outputs of an "abs" scene (partial contact): bouncing and contact measures.
+ABS_RUN_VARIABLES = (
+    "status",
+    "message",
+    "bouncing_3sigma",
+    "mean_flying_height",
+    "min_clearance",
+    "mean_contact_force",
+    "max_contact_force",
+    "contact_fraction",
+    "mean_adhesion_force",
+    "mean_friction_force",
+    "fh_peak_frequency",
+    "pitch_peak_frequency",
+    "roll_peak_frequency",
+    "steady_flying_height",
+    "steady_pitch",
+    "steady_roll",
+    "steady_contact_force",
+    "steps",
+    "newton_iterations",
+    "wall_time",
+)
 ALLOWED = {
     "study": {"name", "title", "scene", "mode", "description"},
     "multifidelity": {"cheap", "axes"},
@@ -168,7 +191,9 @@ def code_fingerprint() -> str:
     by other code: after any change to the numerics, every run is computed anew.
     """
     root = Path(__file__).resolve().parent.parent
-    files = sorted((root / "solver").rglob("*.py")) + [root / "pipeline" / n for n in ("runner.py", "classify.py")]
+    files = sorted((root / "solver").rglob("*.py")) + [
+        root / "pipeline" / n for n in ("runner.py", "classify.py", "profiles.py")
+    ]
     digest = hashlib.sha256()
     for f in files:
         digest.update(f.relative_to(root).as_posix().encode())
@@ -202,7 +227,7 @@ def _check_keys(path: Path, where: str, table: dict[str, Any], allowed: set[str]
             raise _study_error(path, where, f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
 
 
-def _parse_axis(path: Path, n: int, raw: Any) -> Axis:
+def _parse_axis(path: Path, n: int, raw: Any, kind: str = "rails") -> Axis:
     where = f"[[axes]] #{n + 1}"
     if not isinstance(raw, dict):
         raise _study_error(path, where, "must be a table")
@@ -212,7 +237,7 @@ def _parse_axis(path: Path, n: int, raw: Any) -> Axis:
         raise _study_error(path, where, "needs key = 'SECTION.NAME' (a scene key such as 'contact.mu')")
     where = f"axis {key!r}"
     try:
-        meta = field_metadata(key)
+        meta = field_metadata(key, kind)
     except ParameterError as err:
         raise _study_error(path, where, f"the scene has no such key ({err})") from None
     dim = raw.get("dim", key.partition(".")[2])
@@ -288,7 +313,7 @@ def load_study(
     raw_axes = data.get("axes", [])
     if not isinstance(raw_axes, list) or not raw_axes:
         raise _study_error(path, "[[axes]]", "a study needs at least one axis")
-    axes = tuple(_parse_axis(path, n, raw) for n, raw in enumerate(raw_axes))
+    axes = tuple(_parse_axis(path, n, raw, base.get("kind", "rails")) for n, raw in enumerate(raw_axes))
     for attr in ("key", "dim"):
         seen = [getattr(a, attr) for a in axes]
         dup = {s for s in seen if seen.count(s) > 1}
@@ -304,17 +329,19 @@ def load_study(
 
     outputs = data.get("outputs", {})
     _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
-    variables = outputs.get("variables", list(RUN_VARIABLES))
+    kind = base.get("kind", "rails")
+    known = ABS_RUN_VARIABLES if kind == "abs" else RUN_VARIABLES
+    variables = outputs.get("variables", list(known))
     if not isinstance(variables, list):
         raise _study_error(path, "[outputs] variables", "must be a list")
     for v in variables:
-        if v not in RUN_VARIABLES:
-            allowed = ", ".join(RUN_VARIABLES)
+        if v not in known:
+            allowed = ", ".join(known)
             raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
-    for needed in ("stable", "status"):
+    for needed in ("status",) if kind == "abs" else ("stable", "status"):
         if needed not in variables:
             variables = [needed, *variables]
-    impacts = outputs.get("impacts", 20)
+    impacts = outputs.get("impacts", 0 if kind == "abs" else 20)
     if not isinstance(impacts, int) or isinstance(impacts, bool) or impacts < 0:
         raise _study_error(path, "[outputs] impacts", f"{impacts!r} must be an integer >= 0")
 

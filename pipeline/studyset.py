@@ -53,7 +53,28 @@ CELL_VARIABLES: dict[str, tuple[Any, Any, str, str, dict[str, Any]]] = {
     "steps": (np.int32, -1, "1", "time steps taken", {"comment": MISSING_COUNT}),
     "newton_iterations": (np.int32, -1, "1", "Newton iterations", {"comment": MISSING_COUNT}),
     "wall_time": (np.float64, np.nan, "s", "wall time of the run on its worker", {}),
+    "bouncing_3sigma": (np.float64, np.nan, "m", "3 sigma of the flying height at the element after settling", {}),
+    "mean_flying_height": (np.float64, np.nan, "m", "mean flying height at the element after settling", {}),
+    "min_clearance": (np.float64, np.nan, "m", "smallest spacing of the face to the resolved disk", {}),
+    "mean_contact_force": (np.float64, np.nan, "N", "mean normal contact force after settling", {}),
+    "max_contact_force": (np.float64, np.nan, "N", "largest normal contact force after settling", {}),
+    "contact_fraction": (np.float64, np.nan, "1", "fraction of samples with contact force above the threshold", {}),
+    "mean_adhesion_force": (np.float64, np.nan, "N", "mean adhesion force (negative: towards the disk)", {}),
+    "mean_friction_force": (np.float64, np.nan, "N", "mean friction force", {}),
+    "fh_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the flying-height spectrum", {}),
+    "pitch_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the pitch spectrum", {}),
+    "roll_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the roll spectrum", {}),
+    "steady_flying_height": (np.float64, np.nan, "m", "steady flying height at the element (smooth mean disk)", {}),
+    "steady_pitch": (np.float64, np.nan, "rad", "steady pitch", {}),
+    "steady_roll": (np.float64, np.nan, "rad", "steady roll", {}),
+    "steady_contact_force": (np.float64, np.nan, "N", "steady contact force (statistical roughness)", {}),
 }  # fmt: skip
+
+#: Time series an "abs" run returns in its record: (units, long_name).
+SERIES_VARIABLES = {
+    "flying_height": ("m", "flying height at the read/write element"),
+    "contact_force": ("N", "normal contact force"),
+}
 
 
 def _coord(axis: Axis, values: tuple[Any, ...]) -> tuple[str, np.ndarray, dict[str, str]]:
@@ -105,7 +126,20 @@ def study_dataset(
         data["impact_corner"] = var(imp_corner, idims, "", "corner struck (A, B, C, D)")
         data["impact_impulse"] = var(imp_impulse, idims, "N s", "normal impulse q")
 
+    series_time = next((r["series"]["time"] for _c, r in cells.values() if r.get("series")), None)
+    if series_time is not None:
+        nt = len(series_time)
+        for name, (units, long_name) in SERIES_VARIABLES.items():
+            arr = np.full((*shape, nt), np.nan)
+            for index, (_case, record) in cells.items():
+                values_t = (record.get("series") or {}).get(name)
+                if values_t is not None:
+                    arr[index][: min(nt, len(values_t))] = values_t[:nt]
+            data[name] = var(arr, (*dims, "time"), units, long_name)
+
     coords: dict[str, Any] = {a.dim: _coord(a, v) for a, v in zip(study.axes, values, strict=True)}
+    if series_time is not None:
+        coords["time"] = ("time", np.asarray(series_time), {"units": "s", "long_name": "time since steady flight"})
     if k:
         coords["impact"] = ("impact", np.arange(1, k + 1), {"long_name": "impact number (first impacts of a run)"})
     ds = xr.Dataset(data, coords=coords)

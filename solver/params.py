@@ -385,6 +385,7 @@ SECTIONS: dict[str, type[Section]] = {
 class Scene:
     """A complete scene: every parameter of one simulation."""
 
+    kind = "rails"
     name: str = "benson1989"
     description: str = ""
     slider: Slider = field(default_factory=Slider)
@@ -412,21 +413,44 @@ class Scene:
         return out
 
 
-def field_metadata(dotted_key: str) -> dict[str, Any]:
+def sections_of(kind: str = "rails") -> dict[str, type[Section]]:
+    """The parameter sections of a scene kind: "rails" (scene 1) or "abs" (arbitrary air-bearing surface)."""
+    if kind == "rails":
+        return SECTIONS
+    if kind == "abs":
+        from .absparams import ABS_SECTIONS
+
+        return ABS_SECTIONS
+    raise ParameterError(f"kind = {kind!r} is not allowed: must be one of {', '.join(repr(k) for k in KINDS)}")
+
+
+KINDS = ("rails", "abs")
+
+
+def field_metadata(dotted_key: str, kind: str = "rails") -> dict[str, Any]:
     """units / long_name / symbol of a dotted scene key such as 'contact.mu'."""
+    sections = sections_of(kind)
     section, _, name = dotted_key.partition(".")
-    if section not in SECTIONS:
-        raise ParameterError(f"unknown section {section!r} in key {dotted_key!r}: allowed {', '.join(SECTIONS)}")
-    for f in dataclasses.fields(SECTIONS[section]):
+    if section not in sections:
+        raise ParameterError(f"unknown section {section!r} in key {dotted_key!r}: allowed {', '.join(sections)}")
+    for f in dataclasses.fields(sections[section]):
         if f.name == name:
             return dict(f.metadata)
-    allowed = ", ".join(f.name for f in dataclasses.fields(SECTIONS[section]))
+    allowed = ", ".join(f.name for f in dataclasses.fields(sections[section]))
     raise ParameterError(f"unknown key {dotted_key!r}: section [{section}] has {allowed}")
 
 
-def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Scene:
-    """Build a validated Scene from nested dicts; unknown keys are errors naming ``source``."""
-    known_top = {"name", "description", *SECTIONS}
+def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Any:
+    """Build a validated scene from nested dicts; unknown keys are errors naming ``source``.
+
+    The top-level ``kind`` picks the scene type: "rails" (the default; :class:`Scene`) or "abs"
+    (:class:`solver.absparams.AbsScene`).
+    """
+    kind = data.get("kind", "rails")
+    if kind not in KINDS:
+        raise ParameterError(f"kind = {kind!r} in {source} is not allowed: must be one of {', '.join(KINDS)}")
+    sections = sections_of(kind)
+    known_top = {"kind", "name", "description", *sections}
     for key in data:
         if key not in known_top:
             raise ParameterError(
@@ -438,7 +462,7 @@ def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Scene:
             if not isinstance(data[key], str):
                 raise ParameterError(f"{key} = {data[key]!r} in {source} has the wrong type: expected a string")
             kwargs[key] = data[key]
-    for name, cls in SECTIONS.items():
+    for name, cls in sections.items():
         values = data.get(name, {})
         if not isinstance(values, dict):
             raise ParameterError(f"[{name}] in {source} must be a table, got {values!r}")
@@ -452,7 +476,11 @@ def scene_from_dict(data: dict[str, Any], *, source: str = "<dict>") -> Scene:
             kwargs[name] = cls(**values)
         except ParameterError as err:
             raise ParameterError(f"{err} (in {source})") from None
+    if kind == "abs":
+        from .absparams import AbsScene as scene_type
+    else:
+        scene_type = Scene
     try:
-        return Scene(**kwargs)
+        return scene_type(**kwargs)
     except ParameterError as err:
         raise ParameterError(f"{err} (in {source})") from None

@@ -1,0 +1,121 @@
+"""Figures of scene kind "abs": the source-style history and spectrum of one run, the sweep of a study,
+and the steady pressure over the air-bearing surface.  Functions of datasets only."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import xarray as xr
+
+from .figures import _pyplot
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+
+def plot_abs_run(ds: xr.Dataset) -> Figure:
+    """Flying height, pitch, roll and contact force against time (left), their spectra (right)."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(4, 2, figsize=(11.0, 9.0), constrained_layout=True, gridspec_kw={"width_ratios": [3, 2]})
+    t_ms = ds["time"].values * 1e3
+    settle = float(ds.attrs.get("settle_time", 0.0)) * 1e3
+    rows = [
+        ("flying_height", 1e9, "flying height [nm]", "flying_height_spectrum", "[nm]"),
+        ("pitch", 1e6, "pitch [urad]", "pitch_spectrum", "[urad]"),
+        ("roll", 1e6, "roll [urad]", "roll_spectrum", "[urad]"),
+        ("contact_force", 1e3, "contact force [mN]", None, ""),
+    ]
+    f_khz = ds["frequency"].values * 1e-3
+    for k, (name, scale, label, spec, sunit) in enumerate(rows):
+        ax = axes[k, 0]
+        ax.plot(t_ms, ds[name].values * scale, color="k", lw=0.7)
+        ax.axvspan(t_ms[0], settle, color="0.9", lw=0)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.set_xlim(t_ms[0], t_ms[-1])
+        sax = axes[k, 1]
+        if spec is not None:
+            amp = ds[spec].values * scale
+            sax.plot(f_khz[1:], amp[1:], color="tab:blue", lw=0.8)
+            peak = 1 + int(np.argmax(amp[1:])) if amp.size > 1 else 0
+            if peak:
+                sax.annotate(f"{f_khz[peak]:.0f} kHz", (f_khz[peak], amp[peak]), textcoords="offset points",
+                             xytext=(4, 2), fontsize=8)  # fmt: skip
+            sax.set_xscale("log")
+            sax.set_ylabel(f"amplitude {sunit}")
+            sax.grid(alpha=0.3, which="both")
+        else:
+            sax.axis("off")
+            text = (
+                f"3$\\sigma$ bouncing  {float(ds['bouncing_3sigma']) * 1e9:.3f} nm\n"
+                f"mean FH  {float(ds['mean_flying_height']) * 1e9:.3f} nm\n"
+                f"mean contact force  {float(ds['mean_contact_force']) * 1e3:.4f} mN\n"
+                f"contact fraction  {float(ds['contact_fraction']):.3f}\n"
+                f"steady FH  {float(ds['steady_flying_height']) * 1e9:.3f} nm"
+            )
+            sax.text(0.02, 0.95, text, va="top", family="monospace", fontsize=9, transform=sax.transAxes)
+    axes[3, 0].set_xlabel("time [ms] (grey: settling, left out of the statistics)")
+    axes[2, 1].set_xlabel("frequency [kHz]")
+    fig.suptitle(f"{ds.attrs.get('scene', '')}: partial-contact run", fontsize=11)
+    return fig
+
+
+def plot_abs_study(ds: xr.Dataset) -> Figure:
+    """3-sigma bouncing and mean contact force against the first axis, one line per value of the others."""
+    plt = _pyplot()
+    dims = [d for d in ds["status"].dims]
+    first, rest = dims[0], dims[1:]
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
+    x = ds[first].values
+    scale_x, xunit = _scale(ds[first])
+    stacked = ds.stack(line=rest) if rest else ds.expand_dims(line=[0])
+    for k in range(stacked.sizes["line"]):
+        cell = stacked.isel(line=k)
+        label = ", ".join(f"{d} = {float(cell[d]):g} {ds[d].attrs.get('units', '')}" for d in rest) or None
+        for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
+            y = cell[name].values * scale
+            ax.plot(x * scale_x, y, "o-", label=label, lw=1.2)
+    axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
+    axes[1].set_ylabel("mean contact force [mN]")
+    for ax in axes:
+        ax.set_xlabel(f"{ds[first].attrs.get('long_name', first)} [{xunit}]")
+        ax.grid(alpha=0.3)
+        ax.set_ylim(bottom=0.0)
+    if rest:
+        axes[1].legend(fontsize=8, frameon=False)
+    failed = int(np.count_nonzero(ds["status"].values == -1))
+    note = f" ({failed} failed runs)" if failed else ""
+    fig.suptitle(f"{ds.attrs.get('study', ds.attrs.get('title', ''))}{note}", fontsize=11)
+    return fig
+
+
+def _scale(coord: xr.DataArray) -> tuple[float, str]:
+    units = coord.attrs.get("units", "")
+    if units == "m":
+        span = float(np.nanmax(np.abs(coord.values))) if coord.size else 0.0
+        return (1e6, "um") if span >= 1e-6 else (1e9, "nm")
+    if units == "N":
+        return 1.0 / 9.80665e-3, "gram-force"
+    return 1.0, units or "1"
+
+
+def plot_abs_fly(ds: xr.Dataset) -> Figure:
+    """Steady pressure over the face, with the etched regions' outlines."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
+    x, y = ds["x"].values * 1e3, ds["y"].values * 1e3
+    p = ds["pressure"].values / 101.325e3
+    m = ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", vmin=0.0, vmax=max(2.0, float(p.max())))
+    fig.colorbar(m, ax=ax, label="p / p_ambient")
+    if "depth" in ds:
+        ax.contour(x, y, ds["depth"].values.T * 1e6, levels=[0.05, 0.5], colors="k", linewidths=0.6)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x from the leading edge [mm]")
+    ax.set_ylabel("y [mm]")
+    ax.set_title(
+        f"{ds.attrs.get('scene', '')}: flying height {float(ds['flying_height']) * 1e9:.2f} nm, "
+        f"pitch {float(ds['pitch']) * 1e6:.1f} urad, roll {float(ds['roll']) * 1e6:.2f} urad",
+        fontsize=10,
+    )
+    return fig

@@ -1,0 +1,109 @@
+"""Datasets of scene kind "abs" (partial contact): steady flight and one run with its time series and spectra."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from solver.absparams import AbsScene
+from solver.partial import SERIES, AbsResult, AbsSteady, spectrum, summarize
+
+from .provenance import base_attrs
+from .store import STATUS_FLAGS, scene_attrs, var
+
+SUMMARY_UNITS = {
+    "bouncing_3sigma": ("m", "3 sigma of the flying height at the element after the settling time"),
+    "mean_flying_height": ("m", "mean flying height at the element after the settling time"),
+    "min_clearance": ("m", "smallest spacing of the face to the resolved disk surface after settling"),
+    "mean_contact_force": ("N", "mean normal contact force after settling"),
+    "max_contact_force": ("N", "largest normal contact force after settling"),
+    "contact_fraction": ("1", "fraction of samples with contact force above numerics.contact_threshold"),
+    "mean_adhesion_force": ("N", "mean adhesion force (negative: towards the disk)"),
+    "mean_friction_force": ("N", "mean friction force"),
+    "fh_peak_frequency": ("Hz", "main peak of the flying-height spectrum"),
+    "fh_peak_amplitude": ("m", "amplitude of the flying-height spectrum's main peak"),
+    "pitch_peak_frequency": ("Hz", "main peak of the pitch spectrum"),
+    "pitch_peak_amplitude": ("rad", "amplitude of the pitch spectrum's main peak"),
+    "roll_peak_frequency": ("Hz", "main peak of the roll spectrum"),
+    "roll_peak_amplitude": ("rad", "amplitude of the roll spectrum's main peak"),
+}
+
+
+def steady_variables(steady: AbsSteady, prefix: str = "") -> dict[str, xr.Variable]:
+    p = prefix
+    return {
+        f"{p}z": var(steady.q[0], (), "m", "face height at the pivot above the disk mean plane"),
+        f"{p}pitch": var(steady.q[1], (), "rad", "pitch (positive: leading edge up)"),
+        f"{p}roll": var(steady.q[2], (), "rad", "roll (positive: y < 0 side up)"),
+        f"{p}flying_height": var(steady.element_spacing, (), "m", "flying height at the read/write element"),
+        f"{p}min_spacing": var(steady.min_spacing, (), "m", "smallest spacing over the face's pads"),
+        f"{p}min_spacing_x": var(steady.min_spacing_x, (), "m", "x of the smallest spacing"),
+        f"{p}min_spacing_y": var(steady.min_spacing_y, (), "m", "y of the smallest spacing"),
+        f"{p}air_force": var(steady.air_force[0], (), "N", "air-bearing force"),
+        f"{p}contact_force": var(steady.surface.contact, (), "N", "contact force (statistical roughness)"),
+        f"{p}adhesion_force": var(steady.surface.adhesion, (), "N", "adhesion force"),
+    }
+
+
+def abs_fly_dataset(steady: AbsSteady, scene: AbsScene, depth: np.ndarray | None = None) -> xr.Dataset:
+    data = steady_variables(steady)
+    data["pressure"] = var(steady.pressure, ("x", "y"), "Pa", "air-bearing pressure")
+    if depth is not None:
+        data["depth"] = var(depth, ("x", "y"), "m", "etch depth of the face (control-volume mean)")
+    data["iterations"] = var(steady.iterations, (), "1", "attitude Newton iterations")
+    data["reynolds_solves"] = var(steady.reynolds_solves, (), "1", "sparse Reynolds solves")
+    data["force_residual"] = var(steady.force_residual, (), "1", "force balance residual / preload")
+    data["wall_time"] = var(steady.wall_time, (), "s", "wall time of the steady solve")
+    coords = {
+        "x": ("x", steady.x, {"units": "m", "long_name": "position from the leading edge"}),
+        "y": ("y", steady.y, {"units": "m", "long_name": "position from the centre line"}),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(base_attrs(f"Steady flight of scene {scene.name}"))
+    ds.attrs.update(scene_attrs(scene))
+    ds.attrs["scene_kind"] = "abs"
+    return ds
+
+
+def abs_run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
+    """One partial-contact run: attitude and force histories, spectra, summary, provenance."""
+    summary = summarize(result, scene)
+    data: dict[str, Any] = {
+        "z": var(result.q[:, 0], ("time",), "m", "face height at the pivot"),
+        "pitch": var(result.q[:, 1], ("time",), "rad", "pitch (positive: leading edge up)"),
+        "roll": var(result.q[:, 2], ("time",), "rad", "roll (positive: y < 0 side up)"),
+    }
+    for name, (units, long_name) in SERIES.items():
+        data[name] = var(result.series[name], ("time",), units, long_name)
+    keep = result.t >= scene.numerics.settle_time - 1e-15
+    freq = None
+    for name, signal, units in (
+        ("flying_height", result.series["flying_height"], "m"),
+        ("pitch", result.q[:, 1], "rad"),
+        ("roll", result.q[:, 2], "rad"),
+    ):
+        f, amp = spectrum(result.t[keep], signal[keep])
+        freq = f
+        data[f"{name}_spectrum"] = var(amp, ("frequency",), units, f"amplitude spectrum of {name} after settling")
+    for key, value in summary.items():
+        units, long_name = SUMMARY_UNITS[key]
+        data[key] = var(value, (), units, long_name)
+    data["status"] = var(np.int8(result.status), (), "1", "run status", **STATUS_FLAGS)
+    for key, long_name in (("steps", "time steps"), ("newton_iterations", "Newton iterations of the contact solve"),
+                           ("reynolds_solves", "Reynolds solves"), ("nodes", "grid nodes")):  # fmt: skip
+        data[key] = var(result.work[key], (), "1", long_name)
+    data["wall_time"] = var(result.work["wall_time"], (), "s", "wall time of the run")
+    data.update(steady_variables(result.steady, prefix="steady_"))
+    coords = {
+        "time": ("time", result.t, {"units": "s", "long_name": "time since steady flight"}),
+        "frequency": ("frequency", freq, {"units": "Hz", "long_name": "frequency"}),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update(base_attrs(f"Partial-contact dynamics of scene {scene.name}"))
+    ds.attrs.update(scene_attrs(scene))
+    ds.attrs["scene_kind"] = "abs"
+    ds.attrs["status_message"] = result.message
+    ds.attrs["settle_time"] = scene.numerics.settle_time
+    return ds

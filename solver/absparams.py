@@ -1,0 +1,413 @@
+"""Parameters of scene kind ``"abs"``: a slider with an arbitrary air-bearing surface in partial contact.
+
+Scene 2 of PHYSICS.md (a femto slider with a micro trailing pad).  The same
+frozen-dataclass machinery as scene 1 (:mod:`solver.params`): SI units,
+ranges and long names written once, validation before any work.
+
+Frame and sign conventions
+--------------------------
+x runs along the slider from the leading edge (x = 0) to the trailing edge
+(x = L), in the direction of the disk's motion at zero skew; y runs across
+it from the centre line (-W/2 <= y <= W/2).  The pivot (gimbal dimple) sits
+at (pivot_x, pivot_y) on the slider's back, ``thickness`` above the face.
+The state is q = (z, pitch, roll): z is the face's height above the disk's
+mean plane at the pivot, pitch > 0 lifts the leading edge, roll > 0 lifts
+the y < 0 side, so the spacing of a face point is
+
+    h(x, y) = z - (x - pivot_x) pitch - (y - pivot_y) roll + s(x, y) - z_d(x, y, t),
+
+with s the static surface (etch depth, crown, camber, twist) and z_d the
+disk's height under the point.  Crown and camber are positive when the
+face bulges towards the disk; twist is the height difference of the
+corners: s = crown (1 - (2 x'/L)^2)... written relative to the bulge, see
+:mod:`solver.abs`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from .params import Air, ParameterError, Section, quantity
+
+GRAM_FORCE = 9.80665e-3  # N
+
+
+@dataclass(frozen=True)
+class Region:
+    """One etched region of the air-bearing surface: a rectangle or a polygon at an etch depth.
+
+    Coordinates from the leading edge (x) and the centre line (y) [m].
+    ``width_from`` names a [slider] key (e.g. "trailing_pad_width") that
+    replaces the rectangle's y extent by that width about its centre line.
+    """
+
+    name: str
+    depth: float
+    rect: tuple[float, float, float, float] | None = None
+    polygon: tuple[tuple[float, float], ...] | None = None
+    width_from: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "depth": self.depth}
+        if self.rect is not None:
+            out["rect"] = list(self.rect)
+        if self.polygon is not None:
+            out["polygon"] = [list(p) for p in self.polygon]
+        if self.width_from:
+            out["width_from"] = self.width_from
+        return out
+
+
+REGION_KEYS = {"name", "depth", "rect", "polygon", "width_from"}
+
+
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ParameterError(f"{where} = {value!r} has the wrong type: expected a finite number [m]")
+    return float(value)
+
+
+def region_from_dict(data: dict[str, Any], index: int) -> Region:
+    where = f"abs.regions[{index}]"
+    if not isinstance(data, dict):
+        raise ParameterError(f"{where} = {data!r} must be a table with keys {', '.join(sorted(REGION_KEYS))}")
+    for key in data:
+        if key not in REGION_KEYS:
+            raise ParameterError(f"unknown key '{where}.{key}': a region has {', '.join(sorted(REGION_KEYS))}")
+    name = data.get("name", f"region {index}")
+    if not isinstance(name, str):
+        raise ParameterError(f"{where}.name = {name!r} has the wrong type: expected a string")
+    if "depth" not in data:
+        raise ParameterError(f"{where} ({name!r}) has no depth: give depth [m] below the pad top (0 = pad)")
+    depth = _number(data["depth"], f"{where}.depth")
+    if depth < 0:
+        raise ParameterError(f"{where}.depth = {depth!r} is not allowed: must be >= 0 [m] (etch depth)")
+    rect = data.get("rect")
+    polygon = data.get("polygon")
+    if (rect is None) == (polygon is None):
+        raise ParameterError(f"{where} ({name!r}) must have exactly one of rect = [x0, x1, y0, y1] or polygon")
+    width_from = data.get("width_from", "")
+    if rect is not None:
+        if not isinstance(rect, list | tuple) or len(rect) != 4:
+            raise ParameterError(f"{where}.rect = {rect!r} is not allowed: must be [x0, x1, y0, y1] [m]")
+        x0, x1, y0, y1 = (_number(v, f"{where}.rect") for v in rect)
+        if not (x1 > x0 and y1 > y0):
+            raise ParameterError(f"{where}.rect = {rect!r} is not allowed: needs x1 > x0 and y1 > y0 [m]")
+        return Region(name, depth, rect=(x0, x1, y0, y1), width_from=width_from)
+    if width_from:
+        raise ParameterError(f"{where}.width_from = {width_from!r} is only allowed with a rect")
+    if not isinstance(polygon, list | tuple) or len(polygon) < 3:
+        raise ParameterError(f"{where}.polygon = {polygon!r} is not allowed: needs at least 3 [x, y] vertices [m]")
+    pts = []
+    for k, p in enumerate(polygon):
+        if not isinstance(p, list | tuple) or len(p) != 2:
+            raise ParameterError(f"{where}.polygon[{k}] = {p!r} is not allowed: must be [x, y] [m]")
+        pts.append((_number(p[0], f"{where}.polygon[{k}]"), _number(p[1], f"{where}.polygon[{k}]")))
+    return Region(name, depth, polygon=tuple(pts))
+
+
+@dataclass(frozen=True)
+class AbsSlider(Section):
+    """A slider body with an arbitrary air-bearing surface (femto form factor by default)."""
+
+    section = "slider"
+    length: float = quantity(0.85e-3, "m", "slider length (leading to trailing edge)", symbol="L", lo=0.0, lo_open=True)
+    width: float = quantity(0.70e-3, "m", "slider width", symbol="W", lo=0.0, lo_open=True)
+    thickness: float = quantity(
+        0.23e-3, "m", "slider thickness: pivot height above the face (friction lever)", symbol="t", lo=0.0
+    )
+    mass: float = quantity(0.58e-6, "kg", "slider mass", symbol="m", lo=0.0, lo_open=True)
+    pitch_inertia: float = quantity(
+        3.75e-14, "kg m2", "pitch inertia about the pivot", symbol="I_p", lo=0.0, lo_open=True
+    )
+    roll_inertia: float = quantity(2.6e-14, "kg m2", "roll inertia about the pivot", symbol="I_r", lo=0.0, lo_open=True)
+    pivot_x: float = quantity(0.425e-3, "m", "pivot position from the leading edge", symbol="x_p", lo=0.0)
+    pivot_y: float = quantity(0.0, "m", "pivot position from the centre line", symbol="y_p")
+    crown: float = quantity(18.0e-9, "m", "crown height (bulge along the length)", symbol="c_r")
+    camber: float = quantity(2.5e-9, "m", "camber height (bulge across the width)", symbol="c_a")
+    twist: float = quantity(0.0, "m", "twist (corner height difference)", symbol="t_w")
+    trailing_pad_width: float = quantity(
+        100.0e-6,
+        "m",
+        "width of the trailing pad (regions with width_from = 'trailing_pad_width')",
+        lo=0.0,
+        lo_open=True,
+    )
+    element_x: float = quantity(
+        0.840e-3, "m", "read/write element (flying-height point) from the leading edge", symbol="x_e", lo=0.0
+    )
+    element_y: float = quantity(0.0, "m", "read/write element from the centre line", symbol="y_e")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for key, value, top in (("pivot_x", self.pivot_x, self.length), ("element_x", self.element_x, self.length)):
+            if value > top:
+                raise ParameterError(
+                    f"slider.{key} = {value!r} is not allowed: must lie on the slider, in [0, {top:g}] [m]"
+                )
+        for key, value in (("pivot_y", self.pivot_y), ("element_y", self.element_y)):
+            if abs(value) > 0.5 * self.width:
+                raise ParameterError(
+                    f"slider.{key} = {value!r} is not allowed: must be within +-{0.5 * self.width:g} [m]"
+                )
+
+
+@dataclass(frozen=True)
+class Abs(Section):
+    """The air-bearing surface: etched regions painted in order over a base depth."""
+
+    section = "abs"
+    base_depth: float = quantity(1.5e-6, "m", "depth of the face outside every region (the deep cavity)", lo=0.0)
+    regions: tuple = field(
+        default=(),
+        metadata={
+            "units": "",
+            "long_name": "etched regions",
+            "lo": None,
+            "hi": None,
+            "lo_open": False,
+            "hi_open": False,
+            "choices": None,
+            "symbol": "",
+        },
+    )
+    refine_region: str = quantity(
+        "trailing pad", "", "name of the region around which the grid is refined (empty: no refinement)"
+    )
+
+    def __post_init__(self) -> None:
+        regions = tuple(r if isinstance(r, Region) else region_from_dict(r, k) for k, r in enumerate(self.regions))
+        object.__setattr__(self, "regions", regions)
+        for f in dataclasses.fields(self):
+            if f.name != "regions":
+                from .params import _check_field
+
+                _check_field(self.section, f, getattr(self, f.name))
+        names = [r.name for r in regions]
+        if self.refine_region and self.refine_region not in names:
+            raise ParameterError(
+                f"abs.refine_region = {self.refine_region!r} is not allowed: must name a region "
+                f"({', '.join(repr(n) for n in names) or 'there are none'}) or be empty"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "base_depth": self.base_depth,
+            "regions": [r.to_dict() for r in self.regions],
+            "refine_region": self.refine_region,
+        }
+
+
+@dataclass(frozen=True)
+class AbsSuspension(Section):
+    """Suspension: preload, springs and dampers in vertical, pitch and roll, static moments."""
+
+    section = "suspension"
+    preload: float = quantity(0.8 * GRAM_FORCE, "N", "preload (0.8 gram-force)", symbol="F", lo=0.0)
+    vertical_stiffness: float = quantity(21.5, "N m-1", "vertical stiffness", symbol="k_z", lo=0.0)
+    pitch_stiffness: float = quantity(3.7e-5, "N m rad-1", "pitch stiffness", symbol="k_p", lo=0.0)
+    roll_stiffness: float = quantity(4.6e-5, "N m rad-1", "roll stiffness", symbol="k_r", lo=0.0)
+    vertical_damping: float = quantity(1.0e-4, "N s m-1", "vertical damping", symbol="c_z", lo=0.0)
+    pitch_damping: float = quantity(1.0e-11, "N m s rad-1", "pitch damping", symbol="c_p", lo=0.0)
+    roll_damping: float = quantity(1.0e-11, "N m s rad-1", "roll damping", symbol="c_r", lo=0.0)
+    static_pitch_moment: float = quantity(0.0, "N m", "static pitch moment (positive lifts the leading edge)")
+    static_roll_moment: float = quantity(0.0, "N m", "static roll moment (positive lifts the y < 0 side)")
+
+
+ACF_SHAPES = ("exponential", "gaussian")
+
+
+@dataclass(frozen=True)
+class AbsDisk(Section):
+    """The disk: speed from rpm and radius, skew, and the track profile that moves under the slider."""
+
+    section = "disk"
+    rpm: float = quantity(10000.0, "min-1", "disk rotation speed", lo=0.0)
+    radius: float = quantity(20.0e-3, "m", "radius of the track", lo=0.0, lo_open=True)
+    skew: float = quantity(6.65, "degree", "skew angle of the slider to the track", lo=-30.0, hi=30.0)
+    rms: float = quantity(0.2e-9, "m", "RMS roughness of the track profile", symbol="sigma", lo=0.0)
+    correlation_length: float = quantity(
+        2.0e-6, "m", "correlation length of the synthetic track profile (1/e lag)", symbol="l", lo=0.0, lo_open=True
+    )
+    acf: str = quantity("exponential", "", "autocorrelation shape of the synthetic profile", choices=ACF_SHAPES)
+    seed: int = quantity(1, "1", "random seed of the synthetic profile", lo=0)
+    profile_file: str = quantity("", "", "measured track profile (CSV or netCDF); empty: synthetic")
+    profile_spacing: float = quantity(0.25e-6, "m", "sample spacing of the synthetic profile", lo=0.0, lo_open=True)
+
+    @property
+    def speed(self) -> float:
+        """Disk speed at the track [m/s]: 2 pi r rpm / 60."""
+        return 2.0 * math.pi * self.radius * self.rpm / 60.0
+
+    @property
+    def velocity(self) -> tuple[float, float]:
+        """Disk velocity in the slider frame (along x, along y) [m/s]."""
+        psi = math.radians(self.skew)
+        return self.speed * math.cos(psi), self.speed * math.sin(psi)
+
+
+SURFACE_CONTACT_LAWS = ("greenwood_williamson", "elastic", "none")
+
+
+@dataclass(frozen=True)
+class SurfaceContact(Section):
+    """Asperity or elastic contact, adhesion and friction, acting on every cell of the face."""
+
+    section = "contact"
+    mu: float = quantity(0.3, "1", "Coulomb friction coefficient", symbol="mu", lo=0.0)
+    delta_gamma: float = quantity(0.008, "J m-2", "surface-energy change (adhesion strength)", symbol="dgamma", lo=0.0)
+    equilibrium_spacing: float = quantity(
+        0.3e-9,
+        "m",
+        "intermolecular equilibrium spacing (zero-force spacing of the adhesion law)",
+        symbol="eps",
+        lo=0.0,
+        lo_open=True,
+    )
+    summit_density: float = quantity(1.0e14, "m-2", "asperity summit density", symbol="eta_s", lo=0.0)
+    summit_radius: float = quantity(1.0e-6, "m", "asperity summit radius", symbol="R", lo=0.0, lo_open=True)
+    slider_modulus: float = quantity(400.0e9, "Pa", "Young's modulus of the slider (AlTiC)", lo=0.0, lo_open=True)
+    slider_poisson: float = quantity(0.23, "1", "Poisson ratio of the slider", lo=0.0, hi=0.5)
+    disk_modulus: float = quantity(110.0e9, "Pa", "Young's modulus of the disk", lo=0.0, lo_open=True)
+    disk_poisson: float = quantity(0.3, "1", "Poisson ratio of the disk", lo=0.0, hi=0.5)
+    candidate_gap: float = quantity(
+        3.0e-9,
+        "m",
+        "cells closer than this (plus 6 RMS) to the disk are checked for contact and adhesion",
+        lo=0.0,
+        lo_open=True,
+    )
+
+
+@dataclass(frozen=True)
+class AbsInitial(Section):
+    section = "initial"
+    zdot: float = quantity(0.0, "m s-1", "initial vertical velocity from steady flight", symbol="zdot0")
+    pitch_rate: float = quantity(0.0, "rad s-1", "initial pitch rate", symbol="th1dot0")
+    roll_rate: float = quantity(0.0, "rad s-1", "initial roll rate", symbol="th2dot0")
+
+
+ABS_AIR_BEARINGS = ("reynolds", "none")
+ABS_SLIP_MODELS = ("continuum", "first_order", "second_order", "fukui_kaneko")
+
+
+@dataclass(frozen=True)
+class AbsModels(Section):
+    section = "models"
+    air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=ABS_AIR_BEARINGS)
+    slip: str = quantity("fukui_kaneko", "", "slip law", choices=ABS_SLIP_MODELS)
+    contact: str = quantity("greenwood_williamson", "", "contact law", choices=SURFACE_CONTACT_LAWS)
+    slip_switch: float = quantity(
+        0.3e-9, "m", "films thinner than this use the bounded second-order slip law (fukui_kaneko)", lo=0.0
+    )
+
+
+@dataclass(frozen=True)
+class AbsNumerics(Section):
+    section = "numerics"
+    nx: int = quantity(121, "1", "grid nodes along the slider", lo=11)
+    ny: int = quantity(101, "1", "grid nodes across the slider", lo=11)
+    refine: float = quantity(
+        4.0, "1", "grid spacing ratio outside / inside the refined window around abs.refine_region", lo=1.0, hi=20.0
+    )
+    refine_nodes: int = quantity(
+        5, "1", "fewest nodes across the narrowest dimension of any region (grid-resolution check)", lo=2
+    )
+    subcells: int = quantity(8, "1", "sub-samples per cell side when rasterising the regions", lo=1, hi=64)
+    dt: float = quantity(0.2e-6, "s", "time step", lo=0.0, lo_open=True)
+    t_end: float = quantity(1.0e-3, "s", "duration of a run", lo=0.0, lo_open=True)
+    settle_time: float = quantity(0.2e-3, "s", "time before the bouncing statistics start", lo=0.0)
+    output_interval: float = quantity(1.0e-6, "s", "sampling interval of the stored time series", lo=0.0)
+    newmark_beta: float = quantity(0.25, "1", "Newmark beta (0.25: average acceleration)", lo=0.0, hi=0.5)
+    newmark_gamma: float = quantity(0.5, "1", "Newmark gamma", lo=0.5, hi=1.0)
+    newton_tol: float = quantity(
+        1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
+    )
+    newton_max_iter: int = quantity(30, "1", "Newton iterations of the implicit contact solve", lo=1)
+    film_floor: float = quantity(
+        0.05e-9, "m", "smallest film thickness the Reynolds equation sees (contact cells)", lo=0.0, lo_open=True
+    )
+    contact_threshold: float = quantity(
+        1.0e-6, "N", "contact force above which a sample counts as in contact (contact_fraction)", lo=0.0
+    )
+    steady_tol: float = quantity(
+        1.0e-5,
+        "1",
+        "steady force balance tolerance (residual / preload; 1e-5 of 0.8 gf moves z by ~1e-14 m)",
+        lo=0.0,
+        lo_open=True,
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.settle_time >= self.t_end:
+            raise ParameterError(
+                f"numerics.settle_time = {self.settle_time!r} is not allowed with numerics.t_end = {self.t_end!r}: "
+                "must be shorter than the run [s]"
+            )
+        ratio = self.output_interval / self.dt
+        if self.output_interval != 0.0 and (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio):
+            raise ParameterError(
+                f"numerics.output_interval = {self.output_interval!r} is not allowed with numerics.dt = {self.dt!r}: "
+                "must be 0 (every step) or a whole multiple of dt [s]"
+            )
+
+    @property
+    def output_every(self) -> int:
+        return max(1, round(self.output_interval / self.dt)) if self.output_interval > 0 else 1
+
+
+ABS_SECTIONS: dict[str, type[Section]] = {
+    "slider": AbsSlider,
+    "abs": Abs,
+    "suspension": AbsSuspension,
+    "air": Air,
+    "disk": AbsDisk,
+    "contact": SurfaceContact,
+    "initial": AbsInitial,
+    "models": AbsModels,
+    "numerics": AbsNumerics,
+}
+
+
+@dataclass(frozen=True)
+class AbsScene:
+    """A complete scene of kind "abs"."""
+
+    name: str = "abs"
+    description: str = ""
+    slider: AbsSlider = field(default_factory=AbsSlider)
+    abs: Abs = field(default_factory=Abs)
+    suspension: AbsSuspension = field(default_factory=AbsSuspension)
+    air: Air = field(default_factory=lambda: Air(mean_free_path=65.0e-9))
+    disk: AbsDisk = field(default_factory=AbsDisk)
+    contact: SurfaceContact = field(default_factory=SurfaceContact)
+    initial: AbsInitial = field(default_factory=AbsInitial)
+    models: AbsModels = field(default_factory=AbsModels)
+    numerics: AbsNumerics = field(default_factory=AbsNumerics)
+
+    kind = "abs"
+
+    def __post_init__(self) -> None:
+        for k, region in enumerate(self.abs.regions):
+            if region.width_from and not hasattr(self.slider, region.width_from):
+                raise ParameterError(
+                    f"abs.regions[{k}].width_from = {region.width_from!r} is not allowed: must name a [slider] key"
+                )
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"kind": "abs", "name": self.name, "description": self.description}
+        for name in ABS_SECTIONS:
+            out[name] = getattr(self, name).to_dict()
+        return out
+
+    def flat(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for name in ABS_SECTIONS:
+            for key, value in getattr(self, name).to_dict().items():
+                if key != "regions":
+                    out[f"{name}.{key}"] = value
+        return out
