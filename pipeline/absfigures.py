@@ -105,8 +105,11 @@ def plot_abs_fly(ds: xr.Dataset) -> Figure:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
     x, y = ds["x"].values * 1e3, ds["y"].values * 1e3
+    from matplotlib.colors import TwoSlopeNorm
+
     p = ds["pressure"].values / 101.325e3
-    m = ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", vmin=0.0, vmax=max(2.0, float(p.max())))
+    norm = TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=max(2.0, float(p.max())))  # sub-ambient blue, above red
+    m = ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
     fig.colorbar(m, ax=ax, label="p / p_ambient")
     if "depth" in ds:
         ax.contour(x, y, ds["depth"].values.T * 1e6, levels=[0.05, 0.5], colors="k", linewidths=0.6)

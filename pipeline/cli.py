@@ -281,6 +281,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
                 print(f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with "
                       f"the full scene; {ds.attrs['cells_changed']} changed class")  # fmt: skip
             print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
+    if not args.skip_scene2:
+        _reproduce_scene2(args, out)
     if not args.skip_bench:
         from .bench import run_bench
 
@@ -289,6 +291,34 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
                                      output=out / "bench_scene1.nc", figure=out / "work_precision.png"))  # fmt: skip
     print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
+SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction")
+
+
+def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
+    """Scene 2: steady flight, one default 1-ms run, the four Table-I studies."""
+    from .config import load_scene
+    from .fanout import run_study
+    from .figures import plot_dataset, save_figure
+    from .study import load_study
+
+    print("\nscene 2: partial-contact femto slider", flush=True)
+    cmd_fly(argparse.Namespace(scene=str(SCENE2), overrides=[], output=out / "chen_bogy2007_fly.nc",
+                               plot=out / "chen_bogy2007_fly.png"))  # fmt: skip
+    print()
+    simulate_abs_scene(load_scene(SCENE2), out / "chen_bogy2007_run.nc", out / "chen_bogy2007_run.png")
+    if args.skip_studies:
+        return
+    for name in SCENE2_STUDIES:
+        study = load_study(SCENE2.parent.parent / f"{name}.toml")
+        print(f"\nstudy {name}: {study.size} runs", flush=True)
+        o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers,
+                      quiet=args.quiet)  # fmt: skip
+        print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+              f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+        print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
 
 
 # Cost model for --dry-run when the ledger has no finished run of the study yet: film-step cost
@@ -406,6 +436,12 @@ def cmd_query(args: argparse.Namespace) -> int:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from .config import read_toml
+
+    if read_toml(args.scene).get("kind") == "abs":
+        from .bench2 import run_bench_abs
+
+        return run_bench_abs(args)
     from .bench import run_bench
 
     return run_bench(args)
@@ -473,6 +509,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
     p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
     p.add_argument("--skip-bench", action="store_true", help="leave out the benchmark (about 3 minutes)")
+    p.add_argument("--skip-scene2", action="store_true", help="leave out scene 2 (flight, one run, four studies)")
     p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)
     return parser

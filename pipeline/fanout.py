@@ -172,6 +172,9 @@ class Progress:
         status = record.get("status", FAILED)
         if status == FAILED:
             verdict = f"FAILED ({record.get('message', '')[:80]})"
+        elif "bouncing_3sigma" in record:
+            verdict = (f"3sigma {record['bouncing_3sigma'] * 1e9:7.4f} nm, contact force "
+                       f"{record['mean_contact_force'] * 1e3:8.5f} mN")  # fmt: skip
         else:
             verdict = f"{'stable  ' if record.get('stable') else 'unstable'} {record.get('n_impacts', 0):4d} impacts"
         count = f"{self.done}/{self.total}" if self.total else f"{self.done}"

@@ -100,7 +100,7 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
 #: Keys of an "abs" scene that do not change its steady flight.
 _ABS_NOT_STEADY = {
     "initial": None,
-    "numerics": ("dt", "t_end", "settle_time", "output_interval", "newmark_beta", "newmark_gamma",
+    "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity",
                  "newton_tol", "newton_max_iter", "contact_threshold"),
     "disk": ("correlation_length", "acf", "seed", "profile_file", "profile_spacing"),
 }  # fmt: skip

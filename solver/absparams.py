@@ -314,21 +314,27 @@ class AbsNumerics(Section):
         4.0, "1", "grid spacing ratio outside / inside the refined window around abs.refine_region", lo=1.0, hi=20.0
     )
     refine_nodes: int = quantity(
-        5, "1", "fewest nodes across the narrowest dimension of any region (grid-resolution check)", lo=2
+        3, "1", "fewest nodes across the narrowest dimension of any region (grid-resolution check)", lo=2
     )
     subcells: int = quantity(8, "1", "sub-samples per cell side when rasterising the regions", lo=1, hi=64)
     dt: float = quantity(0.2e-6, "s", "time step", lo=0.0, lo_open=True)
     t_end: float = quantity(1.0e-3, "s", "duration of a run", lo=0.0, lo_open=True)
     settle_time: float = quantity(0.2e-3, "s", "time before the bouncing statistics start", lo=0.0)
     output_interval: float = quantity(1.0e-6, "s", "sampling interval of the stored time series", lo=0.0)
-    newmark_beta: float = quantity(0.25, "1", "Newmark beta (0.25: average acceleration)", lo=0.0, hi=0.5)
-    newmark_gamma: float = quantity(0.5, "1", "Newmark gamma", lo=0.5, hi=1.0)
+    rho_infinity: float = quantity(
+        0.0,
+        "1",
+        "generalized-alpha spectral radius at infinite frequency (1: trapezoidal Newmark, no numerical damping; "
+        "< 1 damps the unresolved contact modes)",
+        lo=0.0,
+        hi=1.0,
+    )
     newton_tol: float = quantity(
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
     )
     newton_max_iter: int = quantity(30, "1", "Newton iterations of the implicit contact solve", lo=1)
     film_floor: float = quantity(
-        0.05e-9, "m", "smallest film thickness the Reynolds equation sees (contact cells)", lo=0.0, lo_open=True
+        0.3e-9, "m", "smallest film thickness the Reynolds equation sees (cells in contact)", lo=0.0, lo_open=True
     )
     contact_threshold: float = quantity(
         1.0e-6, "N", "contact force above which a sample counts as in contact (contact_fraction)", lo=0.0
