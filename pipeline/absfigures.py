@@ -75,7 +75,11 @@ def plot_abs_study(ds: xr.Dataset) -> Figure:
         label = ", ".join(f"{d} = {float(cell[d]):g} {ds[d].attrs.get('units', '')}" for d in rest) or None
         for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
             y = cell[name].values * scale
-            ax.plot(x * scale_x, y, "o-", label=label, lw=1.2)
+            (line,) = ax.plot(x * scale_x, y, "o-", label=label, lw=1.2)
+            for xi, yi in zip(x * scale_x, y, strict=True):  # the values, readable on either scale
+                if np.isfinite(yi):
+                    ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7,
+                                color=line.get_color())  # fmt: skip
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
     for ax in axes:
@@ -86,7 +90,7 @@ def plot_abs_study(ds: xr.Dataset) -> Figure:
         axes[1].legend(fontsize=8, frameon=False)
     failed = int(np.count_nonzero(ds["status"].values == -1))
     note = f" ({failed} failed runs)" if failed else ""
-    fig.suptitle(f"{ds.attrs.get('study', ds.attrs.get('title', ''))}{note}", fontsize=11)
+    fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{note}", fontsize=11)
     return fig
 
 

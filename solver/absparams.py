@@ -174,9 +174,7 @@ class Abs(Section):
             "symbol": "",
         },
     )
-    refine_region: str = quantity(
-        "trailing pad", "", "name of the region around which the grid is refined (empty: no refinement)"
-    )
+    refine_region: str = quantity("", "", "name of the region around which the grid is refined (empty: none)")
 
     def __post_init__(self) -> None:
         regions = tuple(r if isinstance(r, Region) else region_from_dict(r, k) for k, r in enumerate(self.regions))
@@ -274,9 +272,10 @@ class SurfaceContact(Section):
     disk_modulus: float = quantity(110.0e9, "Pa", "Young's modulus of the disk", lo=0.0, lo_open=True)
     disk_poisson: float = quantity(0.3, "1", "Poisson ratio of the disk", lo=0.0, hi=0.5)
     candidate_gap: float = quantity(
-        3.0e-9,
+        20.0e-9,
         "m",
-        "cells closer than this (plus 6 RMS) to the disk are checked for contact and adhesion",
+        "cells closer than this (plus eps and 6 RMS) to the disk feel contact and adhesion (the adhesion beyond "
+        "20 nm is below 3e-6 of its peak)",
         lo=0.0,
         lo_open=True,
     )
@@ -316,7 +315,14 @@ class AbsNumerics(Section):
     refine_nodes: int = quantity(
         3, "1", "fewest nodes across the narrowest dimension of any region (grid-resolution check)", lo=2
     )
-    subcells: int = quantity(8, "1", "sub-samples per cell side when rasterising the regions", lo=1, hi=64)
+    subcells: int = quantity(
+        1,
+        "1",
+        "sub-samples per cell side when rasterising the regions (1: the depth at the node or face centre; "
+        "averaging smears a step across a face and its h^3 flux, README)",
+        lo=1,
+        hi=64,
+    )
     dt: float = quantity(0.2e-6, "s", "time step", lo=0.0, lo_open=True)
     t_end: float = quantity(1.0e-3, "s", "duration of a run", lo=0.0, lo_open=True)
     settle_time: float = quantity(0.2e-3, "s", "time before the bouncing statistics start", lo=0.0)
@@ -398,10 +404,12 @@ class AbsScene:
     kind = "abs"
 
     def __post_init__(self) -> None:
+        lengths = [f.name for f in dataclasses.fields(AbsSlider) if f.metadata.get("units") == "m"]
         for k, region in enumerate(self.abs.regions):
-            if region.width_from and not hasattr(self.slider, region.width_from):
+            if region.width_from and region.width_from not in lengths:
                 raise ParameterError(
-                    f"abs.regions[{k}].width_from = {region.width_from!r} is not allowed: must name a [slider] key"
+                    f"abs.regions[{k}].width_from = {region.width_from!r} is not allowed: must name a [slider] length "
+                    f"({', '.join(lengths)})"
                 )
 
     def to_dict(self) -> dict[str, Any]:

@@ -20,12 +20,40 @@ reproducible across processes, at no measured cost.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import os
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 FASTMATH = {"contract", "arcp", "nsz"}
 JIT_DISABLED = os.environ.get("HDI_DISABLE_JIT", "0") not in ("", "0", "false", "False")
+
+
+@functools.cache
+def kernels_fingerprint() -> str:
+    """Hash of every kernel module (and this one): the name of the on-disk cache the kernels compile into."""
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in [here / "jit.py", *sorted((here / "kernels").glob("*.py"))]:
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _use_fingerprinted_cache(numba: Any) -> None:
+    """Point numba's cache at a folder named after :func:`kernels_fingerprint`.
+
+    numba checks only a kernel's own source file before reusing its cached
+    machine code, not the kernels it calls and inlines: after an edit to
+    ``kernels/slip.py`` the film kernels kept running the old flow factor
+    (found by tests/test_abs.py).  A cache folder per version of the kernel
+    sources makes any edit recompile everything.  NUMBA_CACHE_DIR, when set,
+    is the parent folder.
+    """
+    base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache" / "hdi" / "numba")
+    numba.config.CACHE_DIR = str(Path(base) / kernels_fingerprint())
 
 
 def njit(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -34,4 +62,5 @@ def njit(func: Callable[..., Any]) -> Callable[..., Any]:
         return func
     import numba
 
+    _use_fingerprinted_cache(numba)
     return numba.njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy")(func)
