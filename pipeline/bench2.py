@@ -1,13 +1,18 @@
 """Benchmark of one scene-2 run (kind "abs"): cost per step and per simulated millisecond against error.
 
-``hdi bench --scene studies/scenes/chen_bogy2007.toml``.  Every case is the
-same 1-ms run (default scene: 0.2 nm RMS track, adhesion, friction) on
-another grid or time step.  Errors are taken against the finest case of the
-same run: the steady flying height, the mean flying height and the 3-sigma
-bouncing after the settling time.  Costs: the median over ``repeats`` timed
-runs on one core (the steady flight is solved once per grid and left out),
-per step and per simulated millisecond; the baseline is the default scene
-measured in the same session, so ratios survive this machine's noise.
+``hdi bench --scene studies/scenes/chen_bogy2007.toml``.  Every case runs the
+default 1-ms run (0.2 nm RMS track, adhesion, friction) on another grid or
+time step, timed: the median over ``repeats`` runs on one core (the steady
+flight is solved once per grid and left out), per step and per simulated
+millisecond, and the cost relative to the default setting measured in the
+same session, so ratios survive this machine's noise.
+
+Errors need a deterministic run: the rough track is split differently on
+every grid (each cell's resolved mean and unresolved RMS), so its 3-sigma
+is not a numerical quantity that converges.  The error run is a smooth
+disk and a 5 mm/s drop from steady flight, 200 us, compared with the
+reference case sample by sample (max |FH(t) - FH_ref(t)|), plus the steady
+flying height.  The rough run's 3-sigma is shown for information.
 """
 
 from __future__ import annotations
@@ -27,15 +32,18 @@ from .store import var, write_netcdf
 
 #: (label, nx, ny, dt [s]) of the benchmark; the last one is the reference.
 CASES = (
-    ("coarse 61x51, dt 0.4 us", 61, 51, 0.4e-6),
-    ("coarse 61x51, dt 0.2 us", 61, 51, 0.2e-6),
+    ("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6),
+    ("coarse 81x67, dt 0.2 us", 81, 67, 0.2e-6),
     ("default 121x101, dt 0.4 us", 121, 101, 0.4e-6),
     ("default 121x101, dt 0.2 us", 121, 101, 0.2e-6),
     ("default 121x101, dt 0.1 us", 121, 101, 0.1e-6),
     ("fine 181x151, dt 0.2 us", 181, 151, 0.2e-6),
     ("reference 241x201, dt 0.1 us", 241, 201, 0.1e-6),
 )
-QUICK = (("coarse 41x31, dt 0.4 us", 41, 31, 0.4e-6), ("reference 61x51, dt 0.2 us", 61, 51, 0.2e-6))
+QUICK = (("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6), ("reference 81x67, dt 0.2 us", 81, 67, 0.2e-6))
+
+#: The error run: a smooth disk (deterministic, no profile) and a 5 mm/s drop from steady flight.
+DISTURBANCE = ["disk.rms=0.0", "initial.zdot=-0.005", "numerics.t_end=2e-4", "numerics.settle_time=0.0"]
 
 
 def run_bench_abs(args: argparse.Namespace) -> int:
@@ -46,25 +54,32 @@ def run_bench_abs(args: argparse.Namespace) -> int:
     print(f"{'case':30s} {'nodes':>6s} {'steps':>6s} {'ms/step':>8s} {'s/ms':>7s} {'FH0 [nm]':>9s} "
           f"{'meanFH':>8s} {'3sig [nm]':>9s} {'Fc [uN]':>8s}")  # fmt: skip
     for label, nx, ny, dt in cases:
-        scene = load_scene(args.scene, [f"numerics.nx={nx}", f"numerics.ny={ny}", f"numerics.dt={dt}",
-                                        f"numerics.output_interval={max(dt, 1e-6)}", f"numerics.t_end={t_end}",
-                                        f"numerics.settle_time={settle}"])  # fmt: skip
+        grid = [
+            f"numerics.nx={nx}",
+            f"numerics.ny={ny}",
+            f"numerics.dt={dt}",
+            f"numerics.output_interval={max(1, round(1e-6 / dt)) * dt}",
+        ]
+        scene = load_scene(args.scene, grid + [f"numerics.t_end={t_end}", f"numerics.settle_time={settle}"])
         steady = fly_start(scene)
+        is_reference = label.startswith("reference")
         walls = []
-        for _ in range(max(1, args.repeats if not label.startswith("reference") else 1)):
+        for _ in range(1 if is_reference else max(1, args.repeats)):
             t0 = time.perf_counter()
             result = simulate_abs(scene, steady=steady)
             walls.append(time.perf_counter() - t0)
         s = summarize(result, scene)
         wall = statistics.median(walls)
         steps = result.work["steps"]
+        probe = load_scene(args.scene, grid + DISTURBANCE)
+        drop = simulate_abs(probe, steady=fly_start(probe))
         row = {
             "case": label, "nx": nx, "ny": ny, "dt": dt, "nodes": nx * ny, "steps": steps,
             "wall_per_run": wall, "wall_per_step": wall / max(steps, 1),
             "wall_per_ms": wall / (scene.numerics.t_end / 1e-3), "status": result.status,
             "steady_flying_height": steady.element_spacing, "mean_flying_height": s["mean_flying_height"],
             "bouncing_3sigma": s["bouncing_3sigma"], "mean_contact_force": s["mean_contact_force"],
-            "halvings": result.work["step_halvings"],
+            "halvings": result.work["step_halvings"], "drop_t": drop.t, "drop_fh": drop.series["flying_height"],
         }  # fmt: skip
         rows.append(row)
         print(f"{label:30s} {nx * ny:6d} {steps:6d} {row['wall_per_step'] * 1e3:8.3f} {row['wall_per_ms']:7.2f} "
@@ -73,14 +88,22 @@ def run_bench_abs(args: argparse.Namespace) -> int:
     ref = rows[-1]
     base = next((r for r in rows if r["case"].startswith("default") and abs(r["dt"] - 0.2e-6) < 1e-12), rows[0])
     print(f"\nerrors against {ref['case']}; cost relative to {base['case']} measured in this session")
-    print(f"{'case':30s} {'FH0 err [nm]':>12s} {'meanFH err':>10s} {'3sig err [%]':>12s} {'cost x':>7s}")
+    print(
+        "  drop: smooth disk, zdot0 = -5 mm/s, 200 us; max |FH(t) - FH_ref(t)| over the run and its largest excursion"
+    )
+    print(
+        f"{'case':30s} {'FH0 err [nm]':>12s} {'drop err [nm]':>13s} {'excursion':>9s} {'3sig [%]':>9s} {'cost x':>7s}"
+    )
     for r in rows:
         r["steady_fh_error"] = abs(r["steady_flying_height"] - ref["steady_flying_height"])
+        ref_fh = np.interp(r["drop_t"], ref["drop_t"], ref["drop_fh"])
+        r["drop_error"] = float(np.max(np.abs(r["drop_fh"] - ref_fh)))
+        r["drop_excursion"] = float(np.max(np.abs(ref["drop_fh"] - ref["drop_fh"][0])))
         r["mean_fh_error"] = abs(r["mean_flying_height"] - ref["mean_flying_height"])
         r["bouncing_error"] = abs(r["bouncing_3sigma"] / ref["bouncing_3sigma"] - 1.0)
         r["cost_ratio"] = r["wall_per_run"] / base["wall_per_run"]
-        print(f"{r['case']:30s} {r['steady_fh_error'] * 1e9:12.5f} {r['mean_fh_error'] * 1e9:10.5f} "
-              f"{100 * r['bouncing_error']:12.2f} {r['cost_ratio']:7.2f}")  # fmt: skip
+        print(f"{r['case']:30s} {r['steady_fh_error'] * 1e9:12.5f} {r['drop_error'] * 1e9:13.5f} "
+              f"{r['drop_excursion'] * 1e9:9.4f} {100 * r['bouncing_error']:9.2f} {r['cost_ratio']:7.2f}")  # fmt: skip
     if args.output:
         ds = xr.Dataset(
             {

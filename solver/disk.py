@@ -277,15 +277,15 @@ def profile_from_arrays(positions: np.ndarray, heights: np.ndarray, source: str 
 
 @dataclass(frozen=True, eq=False)
 class DiskTables:
-    """Window statistics of one profile for the columns of a grid.
+    """Window statistics of one profile for the nodes (or columns) of a grid.
 
     spacing : float [m], the profile's sample step.
     mean : ndarray (nw, n) [m], box-filtered heights, one row per distinct window.
     residual_rms : ndarray (nw, n) [m], residual RMS in the same windows.
     window_samples : ndarray (nw,) int, samples per window (odd, or n for the whole track).
-    table_of_column : ndarray (nx,) int, the row used by each grid column.
+    table_of_column : ndarray (nx,) or (nx, ny) int, the row used by each grid column or node.
 
-    Memory is 16 nw n bytes: columns whose widths round to the same number
+    Memory is 16 nw n bytes: nodes whose widths round to the same number
     of samples share a row.
     """
 
@@ -302,13 +302,14 @@ class DiskTables:
 
 
 def disk_tables(profile: DiskProfile, column_widths: np.ndarray) -> DiskTables:
-    """Window statistics for grid columns of along-track widths ``column_widths`` (nx,) [m]."""
+    """Window statistics for along-track cell widths ``column_widths``, (nx,) per column or (nx, ny) per node [m]."""
     widths = np.asarray(column_widths, dtype=float)
-    if widths.ndim != 1:
-        raise ValueError(f"column_widths must be one-dimensional, got shape {widths.shape}")
+    if widths.ndim not in (1, 2):
+        raise ValueError(f"column_widths must be (nx,) or (nx, ny), got shape {widths.shape}")
     n = profile.heights.size
-    samples = np.array([window_samples(profile.spacing, w, n) for w in widths], dtype=np.int64)
+    samples = np.array([window_samples(profile.spacing, w, n) for w in widths.ravel()], dtype=np.int64)
     distinct, table_of_column = np.unique(samples, return_inverse=True)
+    table_of_column = table_of_column.reshape(widths.shape)
     mean = np.empty((distinct.size, n))
     residual = np.empty((distinct.size, n))
     for row, m in enumerate(distinct):
@@ -325,21 +326,22 @@ def disk_surface(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Resolved disk height zd and unresolved roughness sd at the nodes when the disk has moved ``shift`` = V t.
 
-    s_nodes : (nx, ny) along-track node coordinates [m]; column i uses row
-    ``tables.table_of_column[i]``; the kernel reduces ``shift`` modulo the
-    track length.  zd, sd : optional (nx, ny) outputs filled in place.
+    s_nodes : (nx, ny) along-track node coordinates [m]; node (i, j) uses row
+    ``tables.table_of_column[i]`` (per-column tables) or ``[i, j]`` (per-node);
+    the kernel reduces ``shift`` modulo the track length.  zd, sd : optional
+    (nx, ny) outputs filled in place.
     """
     s_nodes = np.ascontiguousarray(s_nodes, dtype=float)
-    if s_nodes.ndim != 2 or s_nodes.shape[0] != tables.table_of_column.size:
-        raise ValueError(
-            f"s_nodes has shape {s_nodes.shape}; expected ({tables.table_of_column.size}, ny), one row per column"
-        )
+    table = tables.table_of_column
+    if s_nodes.ndim != 2 or s_nodes.shape[0] != table.shape[0] or (table.ndim == 2 and table.shape != s_nodes.shape):
+        raise ValueError(f"s_nodes has shape {s_nodes.shape}; expected one row per column of {table.shape}")
+    table_of_node = np.ascontiguousarray(np.broadcast_to(table.reshape(table.shape[0], -1), s_nodes.shape))
     zd = np.empty_like(s_nodes) if zd is None else zd
     sd = np.empty_like(s_nodes) if sd is None else sd
     fill_disk_heights(
         tables.mean,
         tables.residual_rms,
-        tables.table_of_column,
+        table_of_node,
         tables.spacing,
         s_nodes,
         float(shift),

@@ -228,7 +228,7 @@ class Track:
     """The disk under the slider: resolved heights z_d and unresolved RMS at the nodes at time t."""
 
     def __init__(self, scene: AbsScene, grid: AbsGrid, profile=None) -> None:
-        from .disk import synthetic_profile, window_statistics
+        from .disk import disk_tables, synthetic_profile
         from .grid import control_volume_widths
 
         disk, num = scene.disk, scene.numerics
@@ -254,19 +254,8 @@ class Track:
         self.profile = profile
         self.s_nodes = np.ascontiguousarray(grid.x[:, None] * math.cos(psi) + grid.y[None, :] * math.sin(psi))
         wx, wy = control_volume_widths(grid.x), control_volume_widths(grid.y)
-        width = wx[:, None] * abs(math.cos(psi)) + wy[None, :] * abs(math.sin(psi))
-        h = profile.spacing
-        samples = np.maximum(1, 2 * np.round(0.5 * (width / h - 1.0)).astype(int) + 1)  # odd sample counts
-        classes, self.width_class = np.unique(samples, return_inverse=True)
-        self.width_class = self.width_class.reshape(nx, ny)
-        means, rmss = [], []
-        for n in classes:
-            m, r = window_statistics(profile, n * h)
-            means.append(m)
-            rmss.append(r)
-        self.means = np.ascontiguousarray(means)
-        self.rmss = np.ascontiguousarray(rmss)
-        self.spacing = h
+        width = wx[:, None] * abs(math.cos(psi)) + wy[None, :] * abs(math.sin(psi))  # each cell along the track
+        self.tables = disk_tables(profile, width)
         self.zd = np.zeros((nx, ny))
         self.sd = np.zeros((nx, ny))
 
@@ -274,10 +263,9 @@ class Track:
         """(z_d, sigma) at the nodes at time t: (nx, ny) each [m]; a smooth disk gives zeros."""
         if self.smooth:
             return self.zero, self.zero
-        from .kernels.track import fill_class_heights
+        from .disk import disk_surface
 
-        fill_class_heights(self.means, self.rmss, self.width_class, self.spacing, self.s_nodes, self.speed * t,
-                           self.zd, self.sd)  # fmt: skip
+        disk_surface(self.tables, self.s_nodes, self.speed * t, self.zd, self.sd)
         return self.zd.copy(), self.sd.copy()
 
     def steady_sigma(self, shape: tuple[int, int]) -> np.ndarray:

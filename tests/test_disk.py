@@ -277,7 +277,8 @@ def test_fill_disk_heights_moves_the_filtered_track(exponential):
         np.testing.assert_allclose(sd[i], expected, rtol=0, atol=1e-9 * RMS)
     # The kernel itself, with the unreduced shift: the same surface.
     zd2, sd2 = np.empty_like(zd), np.empty_like(sd)
-    fill_disk_heights(tables.mean, tables.residual_rms, tables.table_of_column, SPACING, s_nodes, shift, zd2, sd2)
+    per_node = np.ascontiguousarray(np.broadcast_to(tables.table_of_column[:, None], s_nodes.shape))
+    fill_disk_heights(tables.mean, tables.residual_rms, per_node, SPACING, s_nodes, shift, zd2, sd2)
     np.testing.assert_allclose(zd2, zd, rtol=0, atol=1e-6 * RMS)
 
 
@@ -291,7 +292,8 @@ def test_fill_disk_heights_wraps_any_node_and_shift():
     grid = np.arange(n + 1) * spacing
     zd, sd = np.empty_like(s_nodes), np.empty_like(s_nodes)
     for shift in (0.0, 0.37, -4.1 * period, 123.4 * period):
-        fill_disk_heights(*tables, table_of_column, spacing, s_nodes, shift, zd, sd)
+        per_node = np.ascontiguousarray(np.broadcast_to(table_of_column[:, None], s_nodes.shape))
+        fill_disk_heights(*tables, per_node, spacing, s_nodes, shift, zd, sd)
         for i, row in enumerate(table_of_column):
             position = np.mod(s_nodes[i] - shift, period)
             for out, table in zip((zd, sd), tables, strict=True):

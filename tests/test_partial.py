@@ -487,6 +487,6 @@ def test_track_variance_is_resolved_plus_unresolved(rough_track):
     n = track.profile.heights.size
     total = np.zeros(grid.shape)
     for m in range(n):
-        zd, sd = track.at(m * track.spacing / scene.disk.speed)
+        zd, sd = track.at(m * track.tables.spacing / scene.disk.speed)
         total += zd**2 + sd**2
     assert np.max(np.abs(total / n / scene.disk.rms**2 - 1.0)) < 1e-3

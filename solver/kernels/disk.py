@@ -54,7 +54,7 @@ def sample_periodic(values: np.ndarray, spacing: float, s: np.ndarray, out: np.n
 def fill_disk_heights(
     mean_tables: np.ndarray,
     rms_tables: np.ndarray,
-    table_of_column: np.ndarray,
+    table_of_node: np.ndarray,
     spacing: float,
     s_nodes: np.ndarray,
     shift: float,
@@ -65,7 +65,7 @@ def fill_disk_heights(
 
     mean_tables : (nw, n) box-filtered track heights [m], one row per distinct window width.
     rms_tables : (nw, n) residual RMS within the same windows [m].
-    table_of_column : (nx,) int, the row of the tables used by grid column i.
+    table_of_node : (nx, ny) int, the row of the tables used by each node (its window: cell width along the track).
     spacing : sample step of the tables [m].
     s_nodes : (nx, ny) along-track coordinates of the nodes in the slider frame [m].
     shift : V t, the distance the disk has moved [m].
@@ -81,8 +81,8 @@ def fill_disk_heights(
     # One reduction of the shift per call, so that nodes within a period of the origin index without a division.
     offset = period - (shift - period * math.floor(shift / period))
     for i in range(s_nodes.shape[0]):
-        row = table_of_column[i]
         for j in range(s_nodes.shape[1]):
+            row = table_of_node[i, j]
             u = (s_nodes[i, j] + offset) * inv_spacing
             base = math.floor(u)
             frac = u - base
