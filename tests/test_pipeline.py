@@ -171,3 +171,36 @@ def test_cli_bad_input_exits_2_before_work(capsys):
     assert "contact.alpha = 2.0" in err and "[0, 1]" in err
     assert main(["fly", "no/such/scene.toml"]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
+SCENE2_SMALL = ["numerics.nx=81", "numerics.ny=67", "numerics.t_end=2e-5", "numerics.settle_time=5e-6",
+                "contact.delta_gamma=0.0"]  # fmt: skip
+
+
+def test_cli_scene2_fly_simulate_plot(tmp_path, capsys):
+    """Scene 2 through the command line: fly, a short run, their netCDF files read back, the figures drawn."""
+    sets = [a for s in SCENE2_SMALL for a in ("--set", s)]
+    fly_nc, run_nc = tmp_path / "fly2.nc", tmp_path / "run2.nc"
+    assert main(["fly", str(SCENE2), *sets, "-o", str(fly_nc), "--plot", str(tmp_path / "fly2.png")]) == 0
+    assert "flying height" in capsys.readouterr().out
+    fly = open_result(fly_nc)
+    assert fly.attrs["scene_kind"] == "abs" and fly["pressure"].dims == ("x", "y")
+    assert 0.5e-9 < float(fly["flying_height"]) < 10e-9 and fly["flying_height"].attrs["units"] == "m"
+    assert main(["simulate", str(SCENE2), *sets, "-o", str(run_nc), "--plot", str(tmp_path / "run2.png")]) == 0
+    out = capsys.readouterr().out
+    assert "bouncing 3 sigma" in out and "mean contact force" in out
+    run = open_result(run_nc)
+    assert int(run["status"]) == 0 and run["flying_height"].dims == ("time",)
+    assert {"bouncing_3sigma", "mean_contact_force", "contact_fraction", "flying_height_spectrum"} <= set(run)
+    assert float(run["bouncing_3sigma"]) >= 0.0
+    png = tmp_path / "again.png"
+    assert main(["plot", str(run_nc), "-o", str(png)]) == 0 and png.stat().st_size > 10_000
+    assert (tmp_path / "fly2.png").stat().st_size > 10_000
+
+
+def test_cli_scene2_bad_input_names_the_key(capsys):
+    assert main(["fly", str(SCENE2), "--set", "contact.mu=-1"]) == 2
+    assert "contact.mu" in capsys.readouterr().err
+    assert main(["fly", str(SCENE2), "--set", "slider.trailing_pad_width=1e-6"]) == 2
+    assert "trailing pad" in capsys.readouterr().err
