@@ -83,7 +83,8 @@ def plot_abs_study(ds: xr.Dataset) -> Figure:
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
     for ax in axes:
-        ax.set_xlabel(f"{ds[first].attrs.get('long_name', first)} [{xunit}]")
+        name = ds[first].attrs.get("long_name", first).split(" (")[0]  # the long name without its remarks
+        ax.set_xlabel(f"{name} [{xunit}]")
         ax.grid(alpha=0.3)
         ax.set_ylim(bottom=0.0)
     if rest:
