@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .reynolds import af_solve, bernoulli
+from .reynolds import af_solve, bernoulli, sg_flux
 from .slip import flow_factor
 
 
@@ -53,10 +53,7 @@ def face_flux(
     a = lam * hf
     pe = a / (d * inv_d)
     b, db = bernoulli_signed(pe)
-    g = d * b * inv_d
-    dg = (b - pe * db) * inv_d * dd
-    jump = pl - pr
-    return g * jump + a * pl, g + a + jump * dg, -g + jump * dg
+    return sg_flux(pl, pr, d, dd, a, pe, b, db, inv_d)
 
 
 @njit
