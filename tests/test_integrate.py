@@ -34,8 +34,12 @@ def exact_first_crossing(gap0, rate, curvature, s_max):
     """Reference root of gap0 + rate s + curvature s^2 / 2 in high precision (downward crossings only)."""
     with mpmath.workdps(50):
         a, b, c = mpmath.mpf(curvature) / 2, mpmath.mpf(rate), mpmath.mpf(gap0)
-        roots = [-c / b] if a == 0 else [r for r in mpmath.polyroots([a, b, c]) if abs(mpmath.im(r)) == 0]
-        downward = [float(mpmath.re(r)) for r in roots if 0 < mpmath.re(r) <= s_max and b + 2 * a * mpmath.re(r) < 0]
+        if a == 0:
+            roots = [-c / b]
+        else:
+            disc = b * b - 4 * a * c
+            roots = [] if disc < 0 else [(-b - mpmath.sqrt(disc)) / (2 * a), (-b + mpmath.sqrt(disc)) / (2 * a)]
+        downward = [float(r) for r in roots if 0 < r <= s_max and b + 2 * a * r < 0]
     return min(downward, default=math.inf)
 
 
