@@ -445,7 +445,10 @@ def to_dataset(cases: list[Case], reference: Case, report: dict) -> xr.Dataset:
                 report["baseline"]["per_step"], (), "s", "scipy sparse direct Newton step at 201x21, dt 0.1 us"
             ),
         },
-        coords={"case": ("case", [c.label for c in cases]), "k": ("k", np.arange(1, N_COMPARED + 1))},
+        coords={
+            "case": ("case", [c.label for c in cases], {"long_name": "benchmark case"}),
+            "k": ("k", np.arange(1, N_COMPARED + 1), {"long_name": "impulse number (first impulses compared)"}),
+        },
     )
     ds.attrs.update(base_attrs("hdi bench: speed against error, scene 1"))
     ref_num = reference.numerics
@@ -455,10 +458,33 @@ def to_dataset(cases: list[Case], reference: Case, report: dict) -> xr.Dataset:
     best = report.get("recommended")
     ds.attrs["recommended"] = f"{best.family}: {best.label} {best.numerics}" if best else "none"
     ds.attrs["recommended_case"] = best.label if best else ""
-    for fam, (p, p_load) in report["orders"].items():
-        ds.attrs[f"order {fam}"] = ", ".join(f"{x:.2f}" for x in p)
-        if p_load:
-            ds.attrs[f"order {fam} (steady load)"] = ", ".join(f"{x:.2f}" for x in p_load)
-    for target, w_f, w_a in report["equal_error"]:
-        ds.attrs[f"wall per run at time error {target:.0e} (fixed, adaptive)"] = f"{w_f:.4g} s, {w_a:.4g} s"
-    return ds
+    return ds.merge(report_variables(report))
+
+
+def report_variables(report: dict) -> xr.Dataset:
+    """Observed orders per family and the cost of fixed and adaptive steps at equal error, as variables."""
+    families = list(report["orders"])
+    width = max((max(len(p), len(p_load)) for p, p_load in report["orders"].values()), default=0)
+    orders = np.full((len(families), width), np.nan)
+    load_orders = np.full((len(families), width), np.nan)
+    for i, (p, p_load) in enumerate(report["orders"].values()):
+        orders[i, : len(p)] = p
+        load_orders[i, : len(p_load)] = p_load
+    targets = np.array([t for t, _f, _a in report["equal_error"]], dtype=float)
+    data = {
+        "observed_order": var(orders, ("order_family", "refinement"), "1",
+                              "observed order of the first-impulse error between consecutive family members"),
+        "observed_order_steady_load": var(load_orders, ("order_family", "refinement"), "1",
+                                          "observed order of the steady-load error at the source attitude"),
+        "wall_per_run_fixed_at_error": var([f for _t, f, _a in report["equal_error"]], ("time_error_target",), "s",
+                                           "wall time per run of fixed steps at the target time error (interpolated)"),
+        "wall_per_run_adaptive_at_error": var([a for _t, _f, a in report["equal_error"]], ("time_error_target",),
+                                              "s", "wall time per run of adaptive steps at the target time error"),
+    }  # fmt: skip
+    coords = {
+        "order_family": ("order_family", np.array(families, dtype=object), {"long_name": "case family"}),
+        "refinement": ("refinement", np.arange(1, width + 1, dtype=np.int32),
+                       {"long_name": "refinement interval (1: coarsest pair)"}),
+        "time_error_target": ("time_error_target", targets, {"units": "1", "long_name": "target time error"}),
+    }  # fmt: skip
+    return xr.Dataset(data, coords=coords)

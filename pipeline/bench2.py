@@ -126,7 +126,7 @@ def run_bench_abs(args: argparse.Namespace) -> int:
                     ("halvings", "1"),
                 )  # fmt: skip
             },
-            coords={"case": ("case", np.array([r["case"] for r in rows]))},
+            coords={"case": ("case", np.array([r["case"] for r in rows]), {"long_name": "benchmark case"})},
         )
         ds.attrs.update(base_attrs("Scene 2 benchmark: cost per step and per simulated ms against error"))
         ds.attrs["reference"] = ref["case"]

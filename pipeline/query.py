@@ -4,7 +4,7 @@
 (``contact.mu=0.5`` or ``mu=0.5``; floats match to 1e-9 of the axis span);
 ``--var`` chooses the variables.  The same selection in plain xarray:
 
-    ds = xarray.open_dataset("results/fig17.nc")
+    ds = xarray.open_dataset("results/fig17.nc", decode_times=False)
     ds[["stable", "n_impacts"]].sel(mu=0.5, zdot0=-0.01).to_dataframe()
 """
 

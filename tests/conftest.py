@@ -79,3 +79,33 @@ def inclined_slider_arrays(x: np.ndarray, K: float):
     Hx = np.repeat(faces[None, :, None], 3, axis=2)
     Hy = np.repeat(nodes[None, :, None], 2, axis=2)
     return H, Hx, Hy, np.diff(x), np.diff(y), control_volume_widths(x), control_volume_widths(y)
+
+
+def cf_errors(path) -> list[str]:
+    """The errors the IOOS compliance checker (CF-1.8) finds in a netCDF file, as 'section: message' lines.
+
+    Errors are the failed high-priority checks, what ``compliance-checker --test cf:1.8`` lists under
+    "Errors"; an exception inside the checker (as a string-valued coordinate variable causes) counts too.
+    """
+    import contextlib
+    import io
+    import json
+    import tempfile
+
+    from compliance_checker.runner import CheckSuite, ComplianceChecker
+
+    CheckSuite.load_all_available_checkers()
+    with tempfile.TemporaryDirectory() as tmp:
+        report = f"{tmp}/report.json"
+        said = io.StringIO()
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            ComplianceChecker.run_checker(
+                str(path), ["cf:1.8"], 0, "normal", output_filename=report, output_format="json"
+            )
+        with open(report) as f:
+            result = json.load(f)["cf:1.8"]
+    failed = [c for c in result["high_priorities"] if c["value"][0] < c["value"][1]]
+    errors = [f"{c['name']}: {m}" for c in failed for m in c["msgs"]]
+    if "exceptions occurred" in said.getvalue():
+        errors.append(said.getvalue().strip())
+    return errors

@@ -6,10 +6,11 @@ import math
 
 import numpy as np
 import pytest
-import xarray as xr
+from conftest import cf_errors
 
 from pipeline.bench import cost_at_error, observed_orders
 from pipeline.cli import main
+from pipeline.store import open_result
 
 
 @pytest.mark.parametrize("order", [1.0, 2.0, 2.7])
@@ -36,7 +37,8 @@ def test_quick_bench_writes_its_table_and_figure(tmp_path, monkeypatch):
     monkeypatch.setenv("HDI_CACHE_DIR", str(tmp_path / "cache"))
     out, png = tmp_path / "bench.nc", tmp_path / "wp.png"
     assert main(["bench", "--quick", "--repeats", "1", "-o", str(out), "--figure", str(png)]) == 0
-    ds = xr.open_dataset(out)
+    ds = open_result(out)
+    assert cf_errors(out) == []
     families = set(ds["family"].values.tolist())
     assert {"grid, uniform across the rail", "fixed step", "adaptive step", "air-bearing level"} <= families
     # the quick reference is 201x21 clustered at dt 0.1 us: every Reynolds case has a finite, non-zero error,
@@ -47,6 +49,5 @@ def test_quick_bench_writes_its_table_and_figure(tmp_path, monkeypatch):
     assert ds.attrs["recommended_case"] in ds["case"].values
     assert float(ds["baseline_wall_per_step"]) > 0 and ds["impulse_error"].attrs["units"] == "1"
     assert png.stat().st_size > 10_000
-    ds.close()
     again = tmp_path / "again.png"  # `hdi plot` knows a bench file
     assert main(["plot", str(out), "-o", str(again)]) == 0 and again.stat().st_size > 10_000

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import cf_errors
 
 from pipeline.boundary import BisectionPlanner
 from pipeline.cli import main
@@ -64,6 +65,11 @@ stop = 1.0
 step = 0.25
 """
 BOUNDARY = '[boundary]\naxis = "contact.alpha"\ntolerance = 0.25\n'
+
+
+# The dask command of the interpreter running the tests: a virtual environment that is not activated has no
+# `dask` on PATH, and a global one would be another installation.
+DASK = str(Path(sys.executable).with_name("dask"))
 
 
 def cli(*args: str, **kwargs) -> subprocess.CompletedProcess:
@@ -184,6 +190,7 @@ def test_dataset_written_and_read_back_has_cf_attributes(tmp_path):
     study = load_study(write_study(tmp_path, MU_ALPHA, extra=BOUNDARY))
     path = tmp_path / "cf.nc"
     run_study(study, path, workers=0, quiet=True)
+    assert cf_errors(path) == []
     with xr.open_dataset(path) as ds:
         assert ds.attrs["Conventions"] == "CF-1.8"
         assert ds.attrs["title"] == "test study small"
@@ -394,12 +401,12 @@ def test_study_on_a_dask_scheduler_and_two_workers_started_by_hand(tmp_path):
     port = free_port()
     address = f"tcp://127.0.0.1:{port}"
     env = {**os.environ, "NUMBA_NUM_THREADS": "1"}
-    procs = [subprocess.Popen(["dask", "scheduler", "--host", "127.0.0.1", "--port", str(port),
+    procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port),
                                "--dashboard-address", ":0"], env=env, stdout=subprocess.DEVNULL,
                               stderr=subprocess.DEVNULL)]  # fmt: skip
     try:
         for _ in range(2):
-            procs.append(subprocess.Popen(["dask", "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
+            procs.append(subprocess.Popen([DASK, "worker", address, "--nthreads", "1", "--no-dashboard"], env=env,
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))  # fmt: skip
         from distributed import Client
 
@@ -495,6 +502,7 @@ def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
         out = run_study(study, tmp_path / f"{study.name}.nc", workers=0, quiet=True)
         assert out.computed == study.size and out.failed == 0
         ds = open_result(tmp_path / f"{study.name}.nc")
+        assert cf_errors(tmp_path / f"{study.name}.nc") == []
         assert set(ds["bouncing_3sigma"].dims) == set(study.dims) and (ds["status"].values == 0).all()
         assert np.isfinite(ds["bouncing_3sigma"].values).all() and (ds["mean_contact_force"].values >= 0).all()
         assert ds["flying_height"].dims[-1] == "time"

@@ -1,0 +1,69 @@
+"""netCDF files: CF-1.8 on disk (IOOS compliance checker), and values that survive the round trip unchanged."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from conftest import cf_errors
+
+from pipeline.provenance import base_attrs
+from pipeline.store import TIME_UNITS, cf_encode, open_result, var, write_netcdf
+
+RESULTS = Path(__file__).resolve().parents[1] / "results"
+
+
+def sample_dataset() -> xr.Dataset:
+    """Every kind of variable the commands write: int64 counters, booleans, string labels, a time axis."""
+    t = np.arange(5) * 2e-7
+    ds = xr.Dataset(
+        {
+            "z": var(np.linspace(1e-7, 2e-7, 5), ("time",), "m", "gimbal height"),
+            "corner_spacing": var(np.arange(20.0).reshape(5, 4), ("time", "corner"), "m", "spacing at the corners"),
+            "n_impacts": var(np.int64(7), (), "1", "number of impacts"),
+            "impact_time": var(np.array([1e-6, 2e-6]), ("impact",), "s", "time of impact"),
+            "held": var(np.array([True, False]), ("impact",), "1", "corner held after the impact"),
+        },
+        coords={
+            "time": ("time", t, {"units": "s", "long_name": "time since the disturbance"}),
+            "corner": ("corner", np.array(list("ABCD")), {"long_name": "flat corner"}),
+            "impact": ("impact", np.arange(2), {"long_name": "impact number"}),
+        },
+    )
+    ds.attrs.update(base_attrs("round trip"))
+    return ds
+
+
+def test_written_file_passes_the_cf_checker_and_reads_back_unchanged(tmp_path):
+    ds = sample_dataset()
+    path = write_netcdf(ds, tmp_path / "sample.nc")
+    assert cf_errors(path) == []
+    back = open_result(path)
+    for name in ds.variables:
+        np.testing.assert_array_equal(back[name].values, ds[name].values, err_msg=str(name))
+    assert back["n_impacts"].dtype == np.int32 and back["held"].dtype == np.int8
+    assert back.sel(corner="C")["corner_spacing"].values.tolist() == [2.0, 6.0, 10.0, 14.0, 18.0]
+    assert back["time"].attrs["standard_name"] == "time" and back["time"].attrs["axis"] == "T"
+    assert back["time"].attrs["units"] == TIME_UNITS
+    with xr.open_dataset(path, decode_times=False) as raw:  # what another reader sees: labels as an auxiliary
+        assert "corner_label" in raw.coords and "corner" not in raw.variables
+        assert "_FillValue" not in raw["time"].encoding or raw["time"].encoding["_FillValue"] is None
+
+
+def test_the_encoding_refuses_what_cf_cannot_hold():
+    ds = sample_dataset()
+    ds.attrs["order grid, uniform"] = "1.5, 2.0"
+    with pytest.raises(ValueError, match="order grid, uniform"):
+        cf_encode(ds)
+    ds = sample_dataset()
+    ds["big"] = var(np.int64(2**40), (), "1", "too large for int32")
+    with pytest.raises(ValueError, match="big"):
+        cf_encode(ds)
+
+
+@pytest.mark.parametrize("path", sorted(RESULTS.glob("*.nc")), ids=lambda p: p.name)
+def test_every_result_file_passes_the_cf_checker(path):
+    assert cf_errors(path) == []
+    assert open_result(path).attrs["Conventions"] == "CF-1.8"
