@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from solver.errors import SolverError
 from solver.params import ParameterError
 
 from . import __version__
@@ -451,6 +452,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hdi", description="Slider air-bearing and head-disk contact dynamics")
     parser.add_argument("--version", action="version", version=f"hdi-slider {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log diagnostics")
+    parser.add_argument("--debug", action="store_true", help="on an error, show the Python traceback")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("fly", help="steady flying attitude of a scene")
@@ -515,19 +517,68 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit status of a command whose input was rejected, and of one whose computation found no answer.
+EXIT_BAD_INPUT, EXIT_NO_ANSWER = 2, 1
+
+
+def error_line(err: BaseException) -> tuple[str, int]:
+    """The one line a failed command prints, and its exit status.
+
+    Bad input (a parameter, a file) names the key, the value and what is allowed; a computation that found no
+    answer (a :class:`solver.errors.SolverError`) adds what to try; anything else is a bug, reported as such.
+    """
+    if isinstance(err, SolverError):
+        hint = f"; try {err.hint}" if err.hint else ""
+        return f"hdi: error: {err}{hint}", EXIT_NO_ANSWER
+    if isinstance(err, ParameterError | FileNotFoundError | ValueError):
+        return f"hdi: error: {err}", EXIT_BAD_INPUT
+    if isinstance(err, OSError):
+        return f"hdi: error: {err.strerror or err}" + (f": {err.filename}" if err.filename else ""), EXIT_BAD_INPUT
+    return (
+        f"hdi: error: unexpected {type(err).__name__}: {err} (a bug: run again with --debug for the traceback "
+        "and report it)",
+        EXIT_NO_ANSWER,
+    )
+
+
+#: Arguments that name files or folders a command writes: checked before any work starts.
+OUTPUT_ARGUMENTS = {"output": "-o/--output", "plot": "--plot", "figure": "--figure", "results": "--results"}
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every file a command will write can be written: its folder exists (or is made) and takes a new file."""
+    import tempfile
+
+    for attr, option in OUTPUT_ARGUMENTS.items():
+        value = getattr(args, attr, None)
+        if not value:
+            continue
+        path = Path(value)
+        folder = path if attr == "results" else path.parent
+        if path.is_dir() and attr != "results":
+            raise ParameterError(f"{option} {path}: is a folder; give a file name")
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryFile(dir=folder):
+                pass
+        except OSError as err:
+            raise ParameterError(f"{option} {path}: cannot write in {folder} ({err.strerror or err})") from None
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(name)s: %(message)s")
     try:
+        check_outputs(args)
         return args.func(args)
-    except ParameterError as err:
-        print(f"hdi: error: {err}", file=sys.stderr)
-        return 2
-    except (FileNotFoundError, ValueError) as err:
-        print(f"hdi: error: {err}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("\nhdi: interrupted; finished runs are kept in the ledger: run the same command to resume",
               file=sys.stderr)  # fmt: skip
         return 130
+    except Exception as err:
+        if args.debug:
+            raise
+        line, status = error_line(err)
+        print(line, file=sys.stderr)
+        return status

@@ -78,8 +78,28 @@ def load_scene(path: str | Path, overrides: list[str] | dict[str, Any] | None = 
     data = read_toml(path)
     if "study" in data or "axes" in data:
         raise ConfigError(f"{path}: this is a study file, not a scene (use 'hdi run')")
+    check_scene_file(data, path)
     data = apply_overrides(data, overrides or [], source=f"--set (scene {path})")
     return scene_from_dict(data, source=str(path))
+
+
+def check_scene_file(data: dict[str, Any], path: str | Path) -> None:
+    """A scene file names its scene and sets at least one section: an empty file is not a scene.
+
+    Without this an empty (or section-less) file would silently run the built-in defaults.
+    """
+    kind = data.get("kind", "rails")
+    try:
+        sections = sections_of(kind)
+    except ParameterError as err:
+        raise ConfigError(f"{path}: {err}") from None
+    missing = [] if "name" in data else ['a name (name = "...")']
+    if not any(isinstance(data.get(s), dict) for s in sections):
+        missing.append("at least one section ([" + "], [".join(sections) + "])")
+    if missing:
+        what = "empty" if not data else "incomplete"
+        raise ConfigError(f"{path}: {what} scene file: it needs {' and '.join(missing)}; "
+                          "see studies/scenes/ for complete scenes")  # fmt: skip
 
 
 def _toml_value(value: Any) -> str:

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from .errors import SteadyFilmError
 from .geometry import rail_centres
 from .grid import RailGrid, control_volume_widths, rail_grid
 from .kernels import motion as km
@@ -46,10 +47,6 @@ SLIP_LAWS: dict[str, tuple[float, float]] = {
     "first_order": (6.0, 0.0),
     "second_order": (6.0, 6.0),
 }
-
-
-class SteadyFilmError(RuntimeError):
-    """The steady Reynolds solve did not converge."""
 
 
 @dataclass

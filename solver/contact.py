@@ -37,12 +37,9 @@ import numpy as np
 from scipy.optimize import nnls
 
 from .dynamics import mass_matrix
+from .errors import ContactError
 from .geometry import CORNERS, corner_is_front, corner_positions
 from .params import Scene
-
-
-class ContactError(RuntimeError):
-    """An impact that the contact law cannot resolve."""
 
 
 @dataclass(frozen=True)

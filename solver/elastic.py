@@ -42,11 +42,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.linalg import cho_factor, cho_solve, lu_factor, lu_solve
 
+from .errors import ElasticContactError
+
 logger = logging.getLogger(__name__)
-
-
-class ElasticContactError(RuntimeError):
-    """The complementarity problem of the elastic contact could not be solved."""
 
 
 def _quadrant_integral(a: np.ndarray, b: np.ndarray) -> np.ndarray:

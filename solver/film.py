@@ -26,14 +26,10 @@ import scipy.sparse.linalg as spla
 
 from .abs import AbsGrid, abs_grid
 from .absparams import AbsScene
+from .errors import SteadyFilmError
 from .grid import control_volume_widths
 from .kernels import film as kf
 from .slip import slip_code
-
-
-class SteadyFilmError(RuntimeError):
-    """A steady Reynolds solve that did not converge."""
-
 
 #: Reference spacing of the scaled equation [m].
 H_REF = 10.0e-9

@@ -100,7 +100,11 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     km.accelerations(f_air, q, suspension, minv, acc)
     start_gaps = normals @ q - h0
     if np.any(start_gaps < -touch_tol):
-        raise ContactError(f"a corner starts below the asperity height (spacings {(start_gaps + h0).tolist()} m)")
+        letters = ", ".join(f"{c} {(g + h0) * 1e9:.2f} nm" for c, g in zip("ABCD", start_gaps, strict=True))
+        raise ContactError(
+            f"a corner starts below the asperity height disk.asperity_height = {h0 * 1e9:.2f} nm ({letters})",
+            hint="a starting attitude (calibration.*) that keeps every flat corner above the asperities",
+        )
     contact = SustainedContact(scene, normals, minv, h0)
     out = _Samples(q, v, f_air, num)
     impacts: list[Impact] = []

@@ -59,14 +59,11 @@ import numpy as np
 
 from .abs import AbsGrid
 from .absparams import AbsScene
+from .errors import AttitudeError
 from .film import AbsFilm, SteadyFilmError
 from .kernels import surface as ksurf
 
 log = logging.getLogger(__name__)
-
-
-class AbsAttitudeError(RuntimeError):
-    """The steady attitude search did not converge."""
 
 
 # mass, suspension --------------------------------------------------------------------------------------
@@ -314,6 +311,14 @@ def element_spacing(scene: AbsScene, q: np.ndarray, row: np.ndarray | None = Non
     return float(row[0] + q[0] + row[1] * q[1] + row[2] * q[2])
 
 
+#: Newton iterations of the steady attitude search before it gives up.
+MAX_ATTITUDE_ITERATIONS = 40
+
+
+def _attitude_text(q: np.ndarray) -> str:
+    return f"z = {q[0] * 1e9:.3f} nm, pitch = {q[1] * 1e6:.2f} urad, roll = {q[2] * 1e6:.3f} urad"
+
+
 def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None = None) -> AbsSteady:
     """Steady attitude: film + surface forces balance the preload and static moments (smooth mean disk).
 
@@ -345,12 +350,13 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
     r, fa, sf = balance(q)
     P_keep = film.P.copy()
     best = [np.max(np.abs(r))]
-    for it in range(1, 41):
+    for it in range(1, MAX_ATTITUDE_ITERATIONS + 1):
         if np.max(np.abs(r)) < scene.numerics.steady_tol:
             break
         if it > 8 and best[-1] > 0.5 * best[-7]:
-            raise AbsAttitudeError(
-                f"steady attitude search stalled at residual {best[-1]:.2e} (no flying equilibrium near q = {q})"
+            raise AttitudeError(
+                f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the attitude search stalled "
+                f"at a force residual of {best[-1]:.2e} preloads near {_attitude_text(q)}"
             )
         J = sf.dfdq / scale[:, None]
         steps = np.array([2e-11, 2e-11 / L, 2e-11 / L])
@@ -380,7 +386,10 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
                 break
             step *= 0.5
         if trial is None:
-            raise AbsAttitudeError(f"steady attitude search failed: the film does not converge near q = {q}")
+            raise AttitudeError(
+                f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the steady film does not "
+                f"converge near {_attitude_text(q)}"
+            )
         r_new, fa_new, sf_new = trial
         q = q + step * dq
         r, fa, sf = r_new, fa_new, sf_new
@@ -388,7 +397,11 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
         best.append(min(best[-1], float(np.max(np.abs(r)))))
         log.info("fly_abs %d: q = %s residual %.2e step %.3f", it, q, np.max(np.abs(r)), step)
     else:
-        raise AbsAttitudeError(f"steady attitude did not converge in 40 iterations (residual {np.max(np.abs(r)):.2e})")
+        raise AttitudeError(
+            f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the attitude search did not "
+            f"converge in {MAX_ATTITUDE_ITERATIONS} iterations (force residual {np.max(np.abs(r)):.2e} preloads "
+            f"near {_attitude_text(q)})"
+        )
     h = film.spacing(q)
     hp = np.where(pad, h, np.inf)
     k = np.unravel_index(np.argmin(hp), h.shape)
@@ -421,7 +434,7 @@ def fly_start(scene: AbsScene, film: AbsFilm | None = None) -> AbsSteady:
     """
     try:
         return fly_abs(scene, film)
-    except (AbsAttitudeError, SteadyFilmError) as err:
+    except (AttitudeError, SteadyFilmError) as err:
         if scene.contact.delta_gamma == 0.0:
             raise
         free = dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, delta_gamma=0.0))

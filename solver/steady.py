@@ -20,14 +20,11 @@ import numpy as np
 
 from .airbearing import ReynoldsFilm, SteadyFilmError, make_film
 from .dynamics import suspension_forces
+from .errors import AttitudeError
 from .geometry import CORNERS, corner_positions, corner_spacings
 from .params import Scene, Suspension
 
 log = logging.getLogger(__name__)
-
-
-class AttitudeError(RuntimeError):
-    """The steady attitude search did not converge."""
 
 
 @dataclass

@@ -8,11 +8,13 @@ import tomllib
 import numpy as np
 import pytest
 import xarray as xr
+from conftest import cf_errors
 
 from pipeline.classify import classify_impulses
 from pipeline.cli import DEFAULT_SCENE, main
 from pipeline.config import ConfigError, load_scene, parse_override, scene_toml
 from pipeline.store import open_result, run_dataset, write_netcdf
+from solver.errors import ContactError
 from solver.integrate import simulate
 from solver.params import ParameterError, scene_from_dict
 
@@ -113,8 +115,7 @@ def test_run_netcdf_round_trip_is_self_describing(small_run, tmp_path):
     assert result.status == 0 and len(result.impacts) >= 1
     path = write_netcdf(run_dataset(result, scene), tmp_path / "run.nc")
     assert not list(tmp_path.glob(".*tmp")), "temporary file left behind"
-    with xr.open_dataset(path) as ds:
-        ds.load()
+    ds = open_result(path)
     assert ds.attrs["Conventions"].startswith("CF-")
     for key in ("title", "source", "history", "git_commit", "package_version", "scene_toml"):
         assert ds.attrs[key], key
@@ -152,6 +153,7 @@ def test_cli_fly_simulate_plot(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "minimum spacing" in out and "bearing number" in out
     fly = open_result(fly_nc)
+    assert cf_errors(fly_nc) == []
     assert float(fly["z"]) == pytest.approx(0.115e-6, rel=1e-12)
     assert fly["pressure"].attrs["units"] == "Pa" and fly["pressure"].shape == (2, 41, 7)
     # pressure is ambient on every rail edge and above it inside
@@ -161,6 +163,7 @@ def test_cli_fly_simulate_plot(tmp_path, capsys):
     assert main(["simulate", str(DEFAULT_SCENE), *sets, "--set", "contact.alpha=0.5", "-o", str(run_nc)]) == 0
     out = capsys.readouterr().out
     assert "impact   1" in out and ("STABLE" in out or "UNSTABLE" in out)
+    assert cf_errors(run_nc) == []
     assert main(["plot", str(run_nc), "-o", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
 
@@ -185,12 +188,14 @@ def test_cli_scene2_fly_simulate_plot(tmp_path, capsys):
     assert main(["fly", str(SCENE2), *sets, "-o", str(fly_nc), "--plot", str(tmp_path / "fly2.png")]) == 0
     assert "flying height" in capsys.readouterr().out
     fly = open_result(fly_nc)
+    assert cf_errors(fly_nc) == []
     assert fly.attrs["scene_kind"] == "abs" and fly["pressure"].dims == ("x", "y")
     assert 0.5e-9 < float(fly["flying_height"]) < 10e-9 and fly["flying_height"].attrs["units"] == "m"
     assert main(["simulate", str(SCENE2), *sets, "-o", str(run_nc), "--plot", str(tmp_path / "run2.png")]) == 0
     out = capsys.readouterr().out
     assert "bouncing 3 sigma" in out and "mean contact force" in out
     run = open_result(run_nc)
+    assert cf_errors(run_nc) == []
     assert int(run["status"]) == 0 and run["flying_height"].dims == ("time",)
     assert {"bouncing_3sigma", "mean_contact_force", "contact_fraction", "flying_height_spectrum"} <= set(run)
     assert float(run["bouncing_3sigma"]) >= 0.0
@@ -204,3 +209,34 @@ def test_cli_scene2_bad_input_names_the_key(capsys):
     assert "contact.mu" in capsys.readouterr().err
     assert main(["fly", str(SCENE2), "--set", "slider.trailing_pad_width=1e-6"]) == 2
     assert "trailing pad" in capsys.readouterr().err
+
+
+def test_cli_failures_end_in_one_line_and_the_traceback_needs_debug(tmp_path, capsys, monkeypatch):
+    sets = [a for s in SMALL for a in ("--set", s)]
+    out = tmp_path / "a.nc"
+    empty = tmp_path / "empty.toml"
+    empty.write_text("")
+    assert main(["simulate", str(empty), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("hdi: error:") and err.count("\n") == 1 and "empty scene file" in err
+    (tmp_path / "nameless.toml").write_text("[contact]\nmu = 0.3\n")
+    assert main(["simulate", str(tmp_path / "nameless.toml"), "-o", str(out)]) == 2
+    assert "needs a name" in capsys.readouterr().err
+    # a scene without an answer (the calibration height puts the rear corners below the asperities): status 1,
+    # the values, what to try, and no file
+    bad = [*sets, "--set", "calibration.z=0.03e-6"]
+    assert main(["simulate", str(DEFAULT_SCENE), *bad, "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("hdi: error: a corner starts below the asperity height") and err.count("\n") == 1
+    assert "B 24.84 nm" in err and "; try " in err and not out.exists()
+    with pytest.raises(ContactError):
+        main(["--debug", "simulate", str(DEFAULT_SCENE), *bad, "-o", str(out)])
+    # a file that cannot be written is refused before any work
+    assert main(["fly", str(DEFAULT_SCENE), *sets, "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr()
+    assert "is a folder" in err.err and "minimum spacing" not in err.out
+    # a bug is reported as one, in one line
+    monkeypatch.setattr("pipeline.cli.cmd_query", lambda args: {}["boom"])
+    parser_main = main(["query", str(out)])
+    err = capsys.readouterr().err
+    assert parser_main == 1 and "unexpected KeyError" in err and "--debug" in err and err.count("\n") == 1
