@@ -17,8 +17,8 @@ import numpy as np
 from pipeline.classify import classify_impulses
 from pipeline.cli import DEFAULT_SCENE
 from pipeline.config import load_scene
-from solver.integrate import simulate
-from solver.steady import fly
+from solver.rails.integrate import simulate
+from solver.rails.steady import fly
 
 
 def main(overrides: list[str]) -> None:

@@ -14,8 +14,8 @@ import numpy as np
 
 from pipeline.cli import DEFAULT_SCENE
 from pipeline.config import load_scene
-from solver.airbearing import make_film
-from solver.steady import fly
+from solver.rails.film import make_film
+from solver.rails.steady import fly
 
 C0_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)
 

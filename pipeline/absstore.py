@@ -7,8 +7,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from solver.absparams import AbsScene
-from solver.partial import SERIES, AbsResult, AbsSteady, spectrum, summarize
+from solver.abs.integrate import SERIES, AbsResult, spectrum, summarize
+from solver.abs.params import AbsScene
+from solver.abs.steady import AbsSteady
 
 from .provenance import base_attrs
 from .store import STATUS_FLAGS, scene_attrs, var

@@ -43,11 +43,11 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import xarray as xr
 
-from solver.airbearing import make_film
-from solver.integrate import Result, simulate
 from solver.kernels import reynolds as kr
-from solver.params import Scene
-from solver.steady import SteadyFlight, fly
+from solver.rails.film import make_film
+from solver.rails.integrate import Result, simulate
+from solver.rails.params import Scene
+from solver.rails.steady import SteadyFlight, fly
 
 from .classify import classify_impulses
 from .config import load_scene

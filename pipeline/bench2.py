@@ -24,7 +24,8 @@ import time
 import numpy as np
 import xarray as xr
 
-from solver.partial import fly_start, simulate_abs, summarize
+from solver.abs.integrate import simulate_abs, summarize
+from solver.abs.steady import fly_start
 
 from .config import load_scene
 from .provenance import base_attrs

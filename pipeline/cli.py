@@ -42,7 +42,7 @@ def _fmt_um(x: float) -> str:
 
 
 def cmd_fly(args: argparse.Namespace) -> int:
-    from solver.steady import fly
+    from solver.rails.steady import fly
 
     from .config import load_scene
     from .store import fly_dataset, write_netcdf
@@ -90,8 +90,8 @@ def cmd_fly(args: argparse.Namespace) -> int:
 
 
 def _fly_abs(scene, args: argparse.Namespace) -> int:
-    from solver.film import AbsFilm
-    from solver.partial import fly_abs
+    from solver.abs.film import AbsFilm
+    from solver.abs.steady import fly_abs
 
     from .absstore import abs_fly_dataset
     from .store import write_netcdf
@@ -129,7 +129,7 @@ def _fly_abs(scene, args: argparse.Namespace) -> int:
 
 def simulate_abs_scene(scene, output: Path | None, plot: Path | None, quiet: bool = False):
     """Fly, run over the moving track, print the bouncing and contact measures, write files."""
-    from solver.partial import simulate_abs
+    from solver.abs.integrate import simulate_abs
 
     from .absstore import abs_run_dataset
     from .runner import abs_profile
@@ -174,7 +174,7 @@ def _fly_fig(steady, scene):
 
 def simulate_scene(scene, output: Path | None, plot: Path | None, quiet: bool = False):
     """Fly, simulate, print the impact history and classification, write files."""
-    from solver.integrate import simulate
+    from solver.rails.integrate import simulate
 
     from .store import run_dataset, write_netcdf
 

@@ -13,7 +13,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from solver.params import ParameterError, Scene, field_metadata, scene_from_dict, sections_of
+from solver.kinds import field_metadata, scene_from_dict, sections_of
+from solver.params import ParameterError
+from solver.rails.params import Scene
 
 
 class ConfigError(ParameterError):

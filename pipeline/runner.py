@@ -42,7 +42,7 @@ def steady_key(scene_dict: dict[str, Any]) -> str:
 
 
 def _steady(scene):
-    from solver.steady import fly
+    from solver.rails.steady import fly
 
     key = steady_key(scene.to_dict())
     if key not in _steady_cache:
@@ -54,14 +54,14 @@ def _steady(scene):
 
 def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) -> dict[str, Any]:
     """Fly and integrate one scene; a JSON-ready record (status -1 and the message if anything failed)."""
-    from solver.params import scene_from_dict
+    from solver.kinds import scene_from_dict
 
     wall0 = time.perf_counter()
     record: dict[str, Any] = {"run_id": run_id, "worker": f"{socket.gethostname()}:{os.getpid()}"}
     if scene_dict.get("kind") == "abs":
         return _run_abs_case(scene_dict, run_id, record, wall0)
     try:
-        from solver.integrate import simulate
+        from solver.rails.integrate import simulate
 
         from .classify import classify_impulses
 
@@ -130,10 +130,11 @@ def abs_profile(scene):
 
 
 def _run_abs_case(scene_dict: dict[str, Any], run_id: str, record: dict[str, Any], wall0: float) -> dict[str, Any]:
-    from solver.params import scene_from_dict
+    from solver.kinds import scene_from_dict
 
     try:
-        from solver.partial import fly_start, simulate_abs, summarize
+        from solver.abs.integrate import simulate_abs, summarize
+        from solver.abs.steady import fly_start
 
         scene = scene_from_dict(scene_dict, source=f"run {run_id}")
         key = abs_steady_key(scene.to_dict())
@@ -167,8 +168,8 @@ def warm_up() -> float:
     """Load (or compile) every numba kernel a run uses, on a tiny scene; returns the seconds it took."""
     os.environ["NUMBA_NUM_THREADS"] = "1"
     t0 = time.perf_counter()
-    from solver.integrate import simulate
-    from solver.params import scene_from_dict
+    from solver.kinds import scene_from_dict
+    from solver.rails.integrate import simulate
 
     scene = scene_from_dict(
         {"numerics": {"nx": 21, "nx_taper": 5, "ny": 5, "dt": 1e-7, "t_end": 3e-7, "output_interval": 1e-7}},

@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from solver.geometry import CORNERS
-from solver.integrate import Result
-from solver.params import Scene
-from solver.steady import SteadyFlight
+from solver.rails.geometry import CORNERS
+from solver.rails.integrate import Result
+from solver.rails.params import Scene
+from solver.rails.steady import SteadyFlight
 
 from .classify import classify_impulses
 from .config import scene_hash, scene_toml

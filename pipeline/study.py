@@ -29,7 +29,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from solver.params import ParameterError, Scene, field_metadata, scene_from_dict
+from solver.kinds import field_metadata, scene_from_dict
+from solver.params import ParameterError
+from solver.rails.params import Scene
 
 from . import __version__
 from .config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from solver.grid import control_volume_widths
-from solver.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider
+from solver.rails.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider
 
 EPS = np.finfo(float).eps
 

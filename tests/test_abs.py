@@ -39,12 +39,13 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from solver.abs import abs_grid, depth, inside_polygon, region_geometry
-from solver.absparams import ABS_SLIP_MODELS, AbsScene
-from solver.film import AbsFilm
+from solver.abs.face import abs_grid, depth, inside_polygon, region_geometry
+from solver.abs.film import AbsFilm
+from solver.abs.params import ABS_SLIP_MODELS, AbsScene
+from solver.abs.steady import fly_start
 from solver.kernels import film as kernels_film
-from solver.params import ParameterError, scene_from_dict
-from solver.partial import fly_start
+from solver.kinds import scene_from_dict
+from solver.params import ParameterError
 from solver.slip import SLIP_CODES, flow_factor
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import EPS, SCENE1_ATTITUDE
 
-from solver.contact import (
+from solver.rails.contact import (
     CONTACT_LAWS,
     ContactError,
     corner_normal,
@@ -22,9 +22,9 @@ from solver.contact import (
     restitution_impact,
     surface_slope,
 )
-from solver.dynamics import kinetic_energy, mass_matrix
-from solver.geometry import CORNERS, corner_is_front, corner_positions
-from solver.params import Contact, Models, Scene
+from solver.rails.dynamics import kinetic_energy, mass_matrix
+from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
+from solver.rails.params import Contact, Models, Scene
 
 CORNER_INDICES = list(range(len(CORNERS)))
 
@@ -88,7 +88,7 @@ def test_impulse_momentum_balance(law, corner, mu):
 
 @pytest.mark.parametrize("corner", CORNER_INDICES)
 def test_velocity_jumps_match_the_source_coefficients(corner):
-    # the source's J, J1 (printed) and J2 = -x2/I2 (sign corrected, see solver.contact)
+    # the source's J, J1 (printed) and J2 = -x2/I2 (sign corrected, see solver.rails.contact)
     scene = scene_with(mu=0.5, alpha=0.8, wedging=False)
     s = scene.slider
     m, a, I1, I2, e, mu = s.mass, s.cg_offset, s.pitch_inertia, s.roll_inertia, s.friction_lever, 0.5

@@ -26,15 +26,15 @@ from conftest import EPS, TAPER_LENGTH, rigid_scene, small_scene, with_preload
 
 from pipeline.classify import classify_impulses
 from pipeline.config import load_scene
-from solver import integrate
-from solver.airbearing import ReynoldsFilm
-from solver.bearings import LinearizedBearing, QuasiStaticTable
-from solver.contact import impulse_direction
-from solver.dynamics import mass_matrix
-from solver.geometry import CORNERS, corner_positions
-from solver.integrate import simulate
-from solver.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider, Suspension
-from solver.steady import fly
+from solver.rails import integrate
+from solver.rails.bearings import LinearizedBearing, QuasiStaticTable
+from solver.rails.contact import impulse_direction
+from solver.rails.dynamics import mass_matrix
+from solver.rails.film import ReynoldsFilm
+from solver.rails.geometry import CORNERS, corner_positions
+from solver.rails.integrate import simulate
+from solver.rails.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider, Suspension
+from solver.rails.steady import fly
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "benson1989.toml"
 #: numerics keys every scene read from SCENE_FILE pins (the file's recommended defaults may change)

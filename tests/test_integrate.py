@@ -17,12 +17,13 @@ import numpy as np
 import pytest
 from conftest import EPS, SMALL_GRID, TAPER_LENGTH, rigid_scene, small_scene, with_preload
 
-from solver.dynamics import mass_matrix, suspension_forces
-from solver.geometry import CORNERS, corner_positions, corner_spacings
-from solver.integrate import simulate
 from solver.kernels import motion as km
-from solver.params import Calibration, Contact, Initial, Models, Numerics, ParameterError, Scene, Slider
-from solver.steady import fly
+from solver.params import ParameterError
+from solver.rails.dynamics import mass_matrix, suspension_forces
+from solver.rails.geometry import CORNERS, corner_positions, corner_spacings
+from solver.rails.integrate import simulate
+from solver.rails.params import Calibration, Contact, Initial, Models, Numerics, Scene, Slider
+from solver.rails.steady import fly
 
 PRELOAD = 0.0932  # N, the source's preload
 

@@ -11,17 +11,9 @@ import dataclasses
 
 import pytest
 
-from solver.params import (
-    SECTIONS,
-    Contact,
-    Models,
-    Numerics,
-    ParameterError,
-    Scene,
-    Slider,
-    field_metadata,
-    scene_from_dict,
-)
+from solver.kinds import field_metadata, scene_from_dict
+from solver.params import ParameterError
+from solver.rails.params import SECTIONS, Contact, Models, Numerics, Scene, Slider
 
 
 @pytest.mark.parametrize(

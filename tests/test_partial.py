@@ -1,4 +1,4 @@
-"""Partial-contact dynamics of scene kind "abs" (:mod:`solver.partial`).
+"""Partial-contact dynamics of scene kind "abs" (:mod:`solver.abs.integrate`).
 
 References: steady flight as a fixed point of the time integrator; the
 bounce of a flat slider on a Greenwood-Williamson wall, a one-degree-of-
@@ -24,21 +24,15 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from solver.abs import abs_grid
-from solver.absparams import AbsScene
-from solver.film import AbsFilm
-from solver.params import scene_from_dict
-from solver.partial import (
-    AbsResult,
-    AbsSteady,
-    SurfaceForces,
-    SurfaceModel,
-    Track,
-    fly_start,
-    mass_matrix,
-    simulate_abs,
-    summarize,
-)
+from solver.abs.dynamics import mass_matrix
+from solver.abs.face import abs_grid
+from solver.abs.film import AbsFilm
+from solver.abs.forces import SurfaceForces, SurfaceModel
+from solver.abs.integrate import AbsResult, simulate_abs, summarize
+from solver.abs.params import AbsScene
+from solver.abs.steady import AbsSteady, fly_start
+from solver.abs.track import Track
+from solver.kinds import scene_from_dict
 from solver.surface import surface_pressures
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"

@@ -15,8 +15,9 @@ from pipeline.cli import DEFAULT_SCENE, main
 from pipeline.config import ConfigError, load_scene, parse_override, scene_toml
 from pipeline.store import open_result, run_dataset, write_netcdf
 from solver.errors import ContactError
-from solver.integrate import simulate
-from solver.params import ParameterError, scene_from_dict
+from solver.kinds import scene_from_dict
+from solver.params import ParameterError
+from solver.rails.integrate import simulate
 
 SMALL = [
     "numerics.nx=41",

@@ -19,10 +19,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from conftest import EPS, SCENE1_ATTITUDE, inclined_slider_arrays, small_scene
 
-from solver.airbearing import SLIP_LAWS, make_film, steady_newton
 from solver.grid import control_volume_widths
 from solver.kernels import reynolds as kr
-from solver.params import Numerics
+from solver.rails.film import SLIP_LAWS, make_film, steady_newton
+from solver.rails.params import Numerics
 
 # ---------------------------------------------------------------------------- helpers
 

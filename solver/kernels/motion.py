@@ -1,6 +1,6 @@
 """Rigid-body step of the slider around the film step, and exact event roots.
 
-Velocity Verlet (see :mod:`solver.integrate`): half kick with the old
+Velocity Verlet (see :mod:`solver.rails.integrate`): half kick with the old
 acceleration, drift, film step over the drift, forces, half kick.
 """
 

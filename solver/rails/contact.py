@@ -36,10 +36,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import nnls
 
-from .dynamics import mass_matrix
-from .errors import ContactError
-from .geometry import CORNERS, corner_is_front, corner_positions
-from .params import Scene
+from solver.errors import ContactError
+from solver.rails.dynamics import mass_matrix
+from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
+from solver.rails.params import Scene
 
 
 @dataclass(frozen=True)

@@ -35,14 +35,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import nnls
 
-from .airbearing import ReynoldsFilm
-from .bearings import make_air_bearing
-from .contact import ContactError, Impact, SustainedContact, corner_normal, surface_slope
-from .dynamics import mass_matrix
-from .geometry import corner_positions
-from .kernels import motion as km
-from .params import Scene
-from .steady import SteadyFlight, fly
+from solver.kernels import motion as km
+from solver.rails.bearings import make_air_bearing
+from solver.rails.contact import ContactError, Impact, SustainedContact, corner_normal, surface_slope
+from solver.rails.dynamics import mass_matrix
+from solver.rails.film import ReynoldsFilm
+from solver.rails.geometry import corner_positions
+from solver.rails.params import Scene
+from solver.rails.steady import SteadyFlight, fly
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +66,29 @@ class Result:
     @property
     def min_spacing(self) -> np.ndarray:
         return self.corner_spacing.min(axis=1)
+
+    @property
+    def series(self) -> dict[str, np.ndarray]:
+        """The time series of :data:`SERIES` by name."""
+        return {
+            "z": self.q[:, 0], "pitch": self.q[:, 1], "roll": self.q[:, 2],
+            "zdot": self.v[:, 0], "pitch_rate": self.v[:, 1], "roll_rate": self.v[:, 2],
+            "min_spacing": self.min_spacing, "corner_spacing": self.corner_spacing, "air_load": self.air_force[:, 0],
+        }  # fmt: skip
+
+
+#: Time series of a run: name -> (units, long_name); corner_spacing has a second dimension, the corner.
+SERIES = {
+    "z": ("m", "gimbal height above the asperity base plane"),
+    "pitch": ("rad", "pitch (positive: leading edge up)"),
+    "roll": ("rad", "roll (positive: x2 < 0 side up)"),
+    "zdot": ("m s-1", "vertical velocity of the gimbal"),
+    "pitch_rate": ("rad s-1", "pitch rate"),
+    "roll_rate": ("rad s-1", "roll rate"),
+    "min_spacing": ("m", "minimum spacing (lowest flat corner)"),
+    "corner_spacing": ("m", "spacing at the flat corners"),
+    "air_load": ("N", "air-bearing load Q"),
+}
 
 
 def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
@@ -341,7 +364,7 @@ def _resolve_impacts(
     A_cd = n_c . M^-1 g_d (least-norm when the corners are dependent, as the
     four corners of a level slider; corners whose impulse would pull are
     dropped).  Symmetric contacts thus get symmetric impulses, and a lone
-    corner gets the single-corner law of :mod:`solver.contact` exactly.  A
+    corner gets the single-corner law of :mod:`solver.rails.contact` exactly.  A
     corner whose rebound would be slower than ``contact.rest_velocity``
     while pressed on is held instead (:class:`SustainedContact`): its target
     is zero normal velocity.  Approach velocities below 1e-10 of the

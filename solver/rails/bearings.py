@@ -1,7 +1,7 @@
 """Air-bearing fidelity levels behind one interface, chosen by name (``models.air_bearing``).
 
 ``reynolds``     the time-dependent Reynolds film solved on-line
-                 (:class:`solver.airbearing.ReynoldsFilm`); squeeze damping,
+                 (:class:`solver.rails.film.ReynoldsFilm`); squeeze damping,
                  film memory and the nonlinear stiffening near contact are all in.
 ``quasi_static`` a table of the *steady* film force and moments over
                  (z, pitch, roll), built once per scene and interpolated (the
@@ -13,7 +13,7 @@
                  film): damping in, but the stiffening near contact out.
 ``none``         no film (zero rails), for free flight and contact-only checks.
 
-Every model has the same interface, used by :func:`solver.integrate.simulate`:
+Every model has the same interface, used by :func:`solver.rails.integrate.simulate`:
 
 * ``reynolds``: the on-line film, which computes steady flight for all levels;
 * ``start(steady)``: prepare a run from steady flight (builds or loads tables);
@@ -39,15 +39,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .airbearing import ReynoldsFilm, SteadyFilmError
-from .dynamics import mass_matrix
-from .geometry import corner_positions
-from .kernels import forcemodels as kf
-from .params import Scene
+from solver.kernels import forcemodels as kf
+from solver.rails.dynamics import mass_matrix
+from solver.rails.film import ReynoldsFilm, SteadyFilmError
+from solver.rails.geometry import corner_positions
+from solver.rails.params import Scene
 
 log = logging.getLogger(__name__)
 
-_FILM_SOURCES = ("airbearing.py", "bearings.py", "grid.py", "geometry.py", "kernels/reynolds.py")
+_FILM_SOURCES = ("rails/film.py", "rails/bearings.py", "grid.py", "rails/geometry.py", "kernels/reynolds.py")
 _memory: dict[str, dict[str, np.ndarray]] = {}
 
 
@@ -63,7 +63,7 @@ def _film_key(scene: Scene, kind: str, q_s: np.ndarray) -> str:
     data["numerics"] = {k: v for k, v in d["numerics"].items() if k.startswith(("nx", "ny", "cluster", "table_"))}
     data["kind"] = kind
     data["q_s"] = [float(x) for x in q_s]
-    here = Path(__file__).parent
+    here = Path(__file__).parents[1]
     code = hashlib.sha256(b"".join((here / f).read_bytes() for f in _FILM_SOURCES)).hexdigest()
     data["code"] = code
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:24]

@@ -20,7 +20,7 @@ with s the static surface (etch depth, crown, camber, twist) and z_d the
 disk's height under the point.  Crown and camber are positive when the
 face bulges towards the disk; twist is the height difference of the
 corners: s = crown (1 - (2 x'/L)^2)... written relative to the bulge, see
-:mod:`solver.abs`.
+:mod:`solver.abs.face`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from .params import Air, ParameterError, Section, quantity
+from solver.params import Air, ParameterError, Section, quantity
 
 GRAM_FORCE = 9.80665e-3  # N
 
@@ -181,7 +181,7 @@ class Abs(Section):
         object.__setattr__(self, "regions", regions)
         for f in dataclasses.fields(self):
             if f.name != "regions":
-                from .params import _check_field
+                from solver.params import _check_field
 
                 _check_field(self.section, f, getattr(self, f.name))
         names = [r.name for r in regions]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .params import Slider
+from solver.rails.params import Slider
 
 CORNERS = ("A", "B", "C", "D")
 

@@ -24,12 +24,12 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .abs import AbsGrid, abs_grid
-from .absparams import AbsScene
-from .errors import SteadyFilmError
-from .grid import control_volume_widths
-from .kernels import film as kf
-from .slip import slip_code
+from solver.abs.face import AbsGrid, abs_grid
+from solver.abs.params import AbsScene
+from solver.errors import SteadyFilmError
+from solver.grid import control_volume_widths
+from solver.kernels import film as kf
+from solver.slip import slip_code
 
 #: Reference spacing of the scaled equation [m].
 H_REF = 10.0e-9

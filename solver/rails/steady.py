@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .airbearing import ReynoldsFilm, SteadyFilmError, make_film
-from .dynamics import suspension_forces
-from .errors import AttitudeError
-from .geometry import CORNERS, corner_positions, corner_spacings
-from .params import Scene, Suspension
+from solver.errors import AttitudeError
+from solver.rails.dynamics import suspension_forces
+from solver.rails.film import ReynoldsFilm, SteadyFilmError, make_film
+from solver.rails.geometry import CORNERS, corner_positions, corner_spacings
+from solver.rails.params import Scene, Suspension
 
 log = logging.getLogger(__name__)
 

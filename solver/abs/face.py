@@ -38,9 +38,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .absparams import AbsScene, Region
-from .grid import control_volume_widths
-from .params import ParameterError
+from solver.abs.params import AbsScene, Region
+from solver.grid import control_volume_widths
+from solver.params import ParameterError
 
 
 def region_geometry(region: Region, scene: AbsScene) -> np.ndarray:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .params import Scene, Slider, Suspension
+from solver.rails.params import Scene, Slider, Suspension
 
 
 def mass_matrix(slider: Slider) -> np.ndarray:

@@ -32,12 +32,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
-from .errors import SteadyFilmError
-from .geometry import rail_centres
-from .grid import RailGrid, control_volume_widths, rail_grid
-from .kernels import motion as km
-from .kernels import reynolds as kr
-from .params import Scene
+from solver.errors import SteadyFilmError
+from solver.grid import RailGrid, control_volume_widths, rail_grid
+from solver.kernels import motion as km
+from solver.kernels import reynolds as kr
+from solver.rails.geometry import rail_centres
+from solver.rails.params import Scene
 
 log = logging.getLogger(__name__)
 

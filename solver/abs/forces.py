@@ -1,0 +1,135 @@
+"""Surface forces on every cell of the face: asperity or elastic contact, adhesion, friction."""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from solver.abs.face import AbsGrid
+from solver.abs.params import AbsScene
+from solver.kernels import surface as ksurf
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class SurfaceForces:
+    """Surface forces of one evaluation: generalized force (3,), its Jacobian (3, 3), and totals [N]."""
+
+    f: np.ndarray
+    dfdq: np.ndarray
+    contact: float
+    adhesion: float
+    friction: float
+    cells: int
+
+
+@dataclass
+class Candidates:
+    """Cells near the disk for one time step: grid index, offset (surface - disk) [m], sigma [m], b (3, k)."""
+
+    index: np.ndarray
+    base: np.ndarray
+    sigma: np.ndarray
+    b: np.ndarray
+
+
+class SurfaceModel:
+    """Contact, adhesion and friction on the cells of the face (those near the disk)."""
+
+    def __init__(self, scene: AbsScene, grid: AbsGrid) -> None:
+        c = scene.contact
+        self.law = scene.models.contact
+        self.eps = c.equilibrium_spacing
+        e_comp = 1.0 / ((1 - c.slider_poisson**2) / c.slider_modulus + (1 - c.disk_poisson**2) / c.disk_modulus)
+        self.e_composite = e_comp
+        self.gw_coef = 4.0 / 3.0 * c.summit_density * e_comp * math.sqrt(c.summit_radius)
+        self.adh_coef = 8.0 * c.delta_gamma / (3.0 * self.eps)
+        self.mu = c.mu
+        psi = math.radians(scene.disk.skew)
+        t = scene.slider.thickness
+        self.friction_arm = np.array([0.0, -t * math.cos(psi), -t * math.sin(psi)])
+        self.reach = self.eps + c.candidate_gap
+        s = scene.slider
+        X, Y = np.meshgrid(grid.x - s.pivot_x, grid.y - s.pivot_y, indexing="ij")
+        self.b = np.stack([np.ones(X.size), -X.ravel(), -Y.ravel()])  # (3, n) d(spacing)/dq per node
+        self.area = grid.area.ravel()
+        self.xc, self.yc = grid.x, grid.y
+        self.grid = grid
+        self._out = np.zeros((4, 0))
+        self._elastic = None
+
+    def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
+        """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
+        if self.law == "none":
+            return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
+        d_flat, s_flat = d.ravel(), sigma.ravel()
+        near = np.flatnonzero(d_flat < self.reach + 6.0 * s_flat)
+        return self._on(near, d_flat[near], s_flat[near])
+
+    def candidates(self, offset: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
+        """The cells within reach (plus ``margin``) at attitude q; offset = static surface - disk height (nx, ny).
+
+        A time step's Newton iterations then evaluate only these cells
+        (:meth:`forces_on`), instead of the whole face.
+        """
+        base, s_flat = offset.ravel(), sigma.ravel()
+        d = base + q @ self.b
+        near = np.flatnonzero(d < self.reach + 6.0 * s_flat + margin)
+        return Candidates(near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]))
+
+    def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:
+        """Surface forces at attitude q from the candidate cells only."""
+        if self.law == "none":
+            return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
+        return self._on(cells.index, cells.base + q @ cells.b, cells.sigma, cells.b)
+
+    def _on(self, near: np.ndarray, dn: np.ndarray, sn: np.ndarray, b: np.ndarray | None = None) -> SurfaceForces:
+        if near.size == 0:
+            return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
+        dn, sn = np.ascontiguousarray(dn), np.ascontiguousarray(sn)
+        out = np.empty((4, near.size))
+        ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, out)
+        pc, dpc, pa, dpa = out
+        if self.law == "elastic":
+            pc, dpc_matrix = self._elastic_pressure(near, dn)
+        area = self.area[near]
+        b = self.b[:, near] if b is None else b
+        fc = pc * area
+        fa = pa * area
+        f = b @ (fc + fa) + self.mu * fc.sum() * self.friction_arm
+        if self.law == "elastic":
+            dfdq = (b * (dpa * area)) @ b.T
+            dfdq += (b * area) @ dpc_matrix @ b.T + self.mu * np.outer(self.friction_arm, area @ dpc_matrix @ b.T)
+        else:
+            w = dpc * area
+            dfdq = (b * (w + dpa * area)) @ b.T + self.mu * np.outer(self.friction_arm, b @ w)
+        in_reach = int(np.count_nonzero(dn < self.reach + 6.0 * sn))
+        return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach)
+
+    def _elastic_pressure(self, near: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Elastic half-space contact on the cells whose rigid gap d - eps is negative (others cannot touch)."""
+        from solver.elastic import influence_matrix, solve_contact
+
+        gap = d - self.eps
+        pc = np.zeros(d.size)
+        dp = np.zeros((d.size, d.size))
+        touching = np.flatnonzero(gap < 0.0)
+        if touching.size == 0:
+            return pc, dp
+        ny = self.grid.y.size
+        i, j = np.divmod(near[touching], ny)
+        from solver.grid import control_volume_widths
+
+        wx, wy = control_volume_widths(self.grid.x), control_volume_widths(self.grid.y)
+        C = influence_matrix(self.grid.x[i], self.grid.y[j], 0.5 * wx[i], 0.5 * wy[j], self.e_composite)
+        p, active = solve_contact(gap[touching], C, 1e-12)
+        pc[touching] = p
+        act = touching[np.asarray(active, dtype=bool)]
+        if act.size:
+            sub = np.flatnonzero(np.asarray(active, dtype=bool))
+            dp[np.ix_(act, act)] = -np.linalg.inv(C[np.ix_(sub, sub)])
+        return pc, dp

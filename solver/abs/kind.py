@@ -1,0 +1,53 @@
+"""Scene kind "abs": a slider with an arbitrary air-bearing surface in partial contact with a rough disk."""
+
+from __future__ import annotations
+
+import os
+
+from ..kind import SceneKind
+from .integrate import SERIES, simulate_abs
+from .params import ABS_SECTIONS, AbsScene
+from .steady import fly_abs, fly_start
+
+#: Keys a run may change and still reuse a steady flight (the steady flight sees the roughness only through
+#: its RMS, so the track's realisation and correlation are free).
+STEADY_FREE = {
+    "initial": None,
+    "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity",
+                 "newton_tol", "newton_max_iter", "contact_threshold"),
+    "disk": ("correlation_length", "acf", "seed", "profile_file", "profile_spacing"),
+}  # fmt: skip
+
+#: The tiny run that loads every kernel a run uses (warm-up): a femto face with a stepped front pad and a
+#: trailing pad on a stepped island (the layout of studies/scenes/chen_bogy2007.toml, without side rails) on a
+#: 31 x 25 grid, two steps.
+WARM_UP_NUMERICS = {"nx": 31, "ny": 25, "refine": 1.0, "refine_nodes": 2, "dt": 0.2e-6, "t_end": 0.4e-6,
+                    "settle_time": 0.0, "output_interval": 0.2e-6}  # fmt: skip
+WARM_UP_REGIONS = (
+    {"name": "leading step", "depth": 0.15e-6, "rect": [0.0, 0.06e-3, -0.33e-3, 0.33e-3]},
+    {"name": "front pad", "depth": 0.0, "rect": [0.06e-3, 0.20e-3, -0.30e-3, 0.30e-3]},
+    {"name": "trailing step", "depth": 0.15e-6, "rect": [0.70e-3, 0.80e-3, -0.13e-3, 0.13e-3]},
+    {"name": "trailing pad", "depth": 0.0, "rect": [0.745e-3, 0.845e-3, -0.05e-3, 0.05e-3]},
+)
+
+
+def warm_up() -> None:
+    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread."""
+    from .params import Abs, AbsNumerics
+
+    os.environ["NUMBA_NUM_THREADS"] = "1"
+    simulate_abs(AbsScene(abs=Abs(regions=WARM_UP_REGIONS), numerics=AbsNumerics(**WARM_UP_NUMERICS)))
+
+
+KIND = SceneKind(
+    name="abs",
+    title="arbitrary air-bearing surface in partial contact with a rough disk",
+    scene_type=AbsScene,
+    sections=ABS_SECTIONS,
+    fly=fly_abs,
+    start=fly_start,
+    simulate=simulate_abs,
+    steady_free=STEADY_FREE,
+    series=SERIES,
+    warm_up=warm_up,
+)
