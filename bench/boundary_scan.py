@@ -15,8 +15,7 @@ import sys
 import numpy as np
 
 from pipeline.classify import classify_impulses
-from pipeline.cli import DEFAULT_SCENE
-from pipeline.config import load_scene
+from pipeline.config import DEFAULT_SCENE, load_scene
 from solver.rails.integrate import simulate
 from solver.rails.steady import fly
 

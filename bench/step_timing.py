@@ -1,54 +1,135 @@
-"""Wall time per time step of the scene-1 contact run, and of each film kernel.
+"""Wall time per time step of scene 1 (rails) and scene 2 (abs), and of each film kernel.
 
-Runs ``simulate`` on scene 1 (mu = 0.5, alpha = 0.85) several times and
-prints the median wall time per step.  Several solver packages can be timed
-side by side, interleaved so that the load of a shared machine hits them
-alike, e.g. against an untouched copy ``solver_orig`` of the package:
+Cases (``--case``, all by default):
 
-    python bench/step_timing.py                       # this solver, 7 repeats
-    PYTHONPATH=/tmp/old python bench/step_timing.py solver solver_orig --repeats 9
-    python bench/step_timing.py --kernels             # median time of each film kernel per call
+* ``rails-101x21``: scene 1 with mu = 0.5, alpha = 0.85 on its default grid (dt 0.4 us, 750 steps);
+* ``rails-201x21``: the same on the source's 201 x 21 grid;
+* ``abs-121x101``: scene 2 (studies/scenes/chen_bogy2007.toml, 121 x 101, dt 0.2 us) from steady flight.
+
+Scene 1 reports a run's wall and CPU time over its steps (setting up a run
+costs a few steps).  Scene 2 sets up a steady film (a sparse Newton solve)
+at the start of every run, so it reports the difference of a long and a
+short run per extra step.  The median per case is printed at the end; CPU
+time is the less sensitive to other processes on a shared machine.
+
+A/B comparison against untouched copies of the package: ``--against DIR
+[DIR ...]`` (each DIR holds a ``solver/`` folder) runs this script in fresh
+processes, alternating between the DIRs and this tree (A B, then B A, ...),
+so that the load of a shared machine hits all alike, and prints the medians
+and their ratios to the first DIR.  (The solver imports itself by absolute
+name, so two copies cannot share a process.)  Scenes are read here, without
+the pipeline, so that any copy of ``solver/`` can be timed.
+
+    python bench/step_timing.py                                # every case, 7 repeats
+    python bench/step_timing.py --case abs-121x101 --repeats 5
+    cp -r solver /tmp/old/   # before editing, then:
+    python bench/step_timing.py --against /tmp/old --rounds 6 --repeats 3
+    python bench/step_timing.py --kernels                      # median time of each film kernel per call
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
+import json
+import os
 import statistics
+import subprocess
+import sys
 import time
+import tomllib
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
-from pipeline.cli import DEFAULT_SCENE
-from pipeline.config import load_scene
+ROOT = Path(__file__).resolve().parents[1]
+RAILS_SCENE = ROOT / "studies" / "scenes" / "benson1989.toml"
+ABS_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007.toml"
+OVERRIDES = {"contact.mu": 0.5, "contact.alpha": 0.85}
+#: Scene 2: steps of the short and the long run whose difference is timed.
+ABS_STEPS = (10, 110)
+CASES = {
+    "rails-101x21": (RAILS_SCENE, OVERRIDES),
+    "rails-201x21": (RAILS_SCENE, {**OVERRIDES, "numerics.nx": 201}),
+    "abs-121x101": (ABS_SCENE, {"numerics.settle_time": 0.0}),
+}
 
-OVERRIDES = ["contact.mu=0.5", "contact.alpha=0.85"]
+
+def load_scene(path: Path, overrides: dict[str, object]):
+    """The scene of a scene file with ``{"section.key": value}`` overrides (validated by the solver)."""
+    from solver.kinds import scene_from_dict
+
+    data = tomllib.loads(path.read_text())
+    for key, value in overrides.items():
+        section, _, name = key.partition(".")
+        data.setdefault(section, {})[name] = value
+    return scene_from_dict(data, source=str(path))
 
 
-def run_timer(package: str) -> Callable[[], tuple[float, list]]:
-    """A function running scene 1 with ``package`` and returning (s per step, impacts)."""
-    integrate = importlib.import_module(f"{package}.integrate")
-    steady_mod = importlib.import_module(f"{package}.steady")
-    scene = load_scene(DEFAULT_SCENE, OVERRIDES)
-    steady = steady_mod.fly(scene)
-    integrate.simulate(scene, steady)  # warm-up (JIT, caches)
+def per_step(run: Callable[[], int]) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``run()`` over the steps it returns."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    steps = run()
+    return (time.perf_counter() - wall) / steps, (time.process_time() - cpu) / steps
 
-    def once() -> tuple[float, list]:
-        r = integrate.simulate(scene, steady)
-        return r.work["wall_time"] / r.work["steps"], r.impacts
+
+def rails_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float]]:
+    """A function running scene 1 and returning its (wall, CPU) seconds per step."""
+    from solver.rails.integrate import simulate
+    from solver.rails.steady import fly
+
+    scene = load_scene(RAILS_SCENE, overrides)
+    steady = fly(scene)
+    simulate(scene, steady)  # warm-up (JIT, caches)
+    return lambda: per_step(lambda: simulate(scene, steady).work["steps"])
+
+
+def abs_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float]]:
+    """A function running scene 2 twice (ABS_STEPS) and returning the (wall, CPU) seconds per extra step."""
+    from solver.abs.integrate import simulate_abs
+    from solver.abs.steady import fly_start
+
+    dt = load_scene(ABS_SCENE, overrides).numerics.dt
+    short, long = (load_scene(ABS_SCENE, {**overrides, "numerics.t_end": n * dt}) for n in ABS_STEPS)
+    steady = fly_start(short)
+    simulate_abs(short, steady)  # warm-up (JIT, caches)
+
+    def run(scene) -> int:
+        r = simulate_abs(scene, steady)
+        if r.status != 0:
+            raise RuntimeError(f"scene 2 run failed: {r.message}")
+        return r.work["steps"]
+
+    def once() -> tuple[float, float]:
+        t_short = per_step(lambda: run(short))
+        t_long = per_step(lambda: run(long))
+        n_short, n_long = ABS_STEPS
+        return tuple((b * n_long - a * n_short) / (n_long - n_short) for a, b in zip(t_short, t_long, strict=True))
 
     return once
 
 
-def kernel_calls(package: str) -> dict[str, Callable[[], object]]:
-    """One call of the film step and of its main kernels of ``package`` on the steady scene-1 film, by name."""
-    kr = importlib.import_module(f"{package}.kernels.reynolds")
-    airbearing = importlib.import_module(f"{package}.airbearing")
-    steady_mod = importlib.import_module(f"{package}.steady")
-    scene = load_scene(DEFAULT_SCENE, OVERRIDES)
-    steady = steady_mod.fly(scene)
-    film = airbearing.make_film(scene)
+def step_times(cases: list[str], repeats: int) -> dict[str, list[tuple[float, float]]]:
+    """(wall, CPU) seconds per step of each case, ``repeats`` samples each, cases interleaved."""
+    timers = {case: (abs_timer if CASES[case][0] == ABS_SCENE else rails_timer)(CASES[case][1]) for case in cases}
+    samples: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
+    for _ in range(repeats):
+        for case, once in timers.items():
+            samples[case].append(once())
+    return samples
+
+
+def kernel_calls() -> dict[str, Callable[[], object]]:
+    """One call of the film steps and of the main scene-1 kernels on the steady films, by name."""
+    from solver.abs.film import AbsFilm
+    from solver.abs.steady import fly_start
+    from solver.kernels import reynolds as kr
+    from solver.rails.film import make_film
+    from solver.rails.steady import fly
+
+    scene = load_scene(RAILS_SCENE, OVERRIDES)
+    steady = fly(scene)
+    film = make_film(scene)
     P0 = steady.pressure / scene.air.ambient_pressure
     q_old = steady.q.copy()
     q_new = q_old + np.array([-0.01, 5.0, 10.0]) * scene.numerics.dt
@@ -66,67 +147,104 @@ def kernel_calls(package: str) -> dict[str, Callable[[], object]]:
         geometry = (film.H_mid, film.Hx_mid, film.Hy_mid, film.dx, film.dy, film.dxc, film.dyc)
         kr.assemble(P0, *geometry, film.lam, film.kn, film.c1, film.c2, *out, True)
 
+    abs_scene = load_scene(ABS_SCENE, CASES["abs-121x101"][1])
+    abs_film = AbsFilm(abs_scene)
+    abs_steady = fly_start(abs_scene, abs_film)
+    abs_P0 = abs_film.P.copy()
+    disk = np.zeros(abs_film.shape)
+    abs_q_new = abs_steady.q + np.array([-1e-10, 1e-7, 1e-7])
+
+    def abs_step() -> None:
+        abs_film.P[...] = abs_P0
+        abs_film.step(abs_steady.q, abs_q_new, disk, disk, abs_scene.numerics.dt)
+
     kernels: dict[str, Callable[[], object]] = {
         "film.step": step,
         "fill_spacing": lambda: film.fill_spacing(q_new, film.H, film.Hx, film.Hy),
         "assemble": assemble,
         "af_solve": lambda: kr.af_solve(diag, *out[1:], rhs, 0.5, delta, work),
         "load_moments": lambda: kr.load_moments(P0, film.area, film.x, film.y_abs),
+        "abs film.step": abs_step,
     }
     for f in kernels.values():
         f()
     return kernels
 
 
-def kernel_times(packages: list[str], repeats: int, calls: int = 300) -> dict[str, dict[str, float]]:
-    """Median seconds per call of each film kernel, packages interleaved."""
-    calls_of = {pkg: kernel_calls(pkg) for pkg in packages}
-    samples = {pkg: {name: [] for name in calls_of[pkg]} for pkg in packages}
+def kernel_times(repeats: int, calls: int = 100) -> dict[str, float]:
+    """Median seconds per call of each film kernel."""
+    calls_of = kernel_calls()
+    samples: dict[str, list[float]] = {name: [] for name in calls_of}
     for _ in range(repeats):
-        for pkg in packages:
-            for name, f in calls_of[pkg].items():
-                t0 = time.perf_counter()
-                for _ in range(calls):
-                    f()
-                samples[pkg][name].append((time.perf_counter() - t0) / calls)
-    return {pkg: {name: statistics.median(v) for name, v in s.items()} for pkg, s in samples.items()}
+        for name, f in calls_of.items():
+            t0 = time.perf_counter()
+            for _ in range(calls):
+                f()
+            samples[name].append((time.perf_counter() - t0) / calls)
+    return {name: statistics.median(v) for name, v in samples.items()}
+
+
+def compare(others: list[Path], cases: list[str], rounds: int, repeats: int) -> None:
+    """Interleaved A/B: fresh processes taking turns on the trees ``others`` and this one, medians and ratios.
+
+    Besides the medians over all runs, the ratio to the first tree is taken per round (the median of
+    each process's runs over that of the first tree's process in the same round) and its median over
+    the rounds printed: load that drifts over minutes cancels in it.
+    """
+    trees = [*(t.resolve() for t in others), ROOT]
+    per_round = {tree: {c: [] for c in cases} for tree in trees}  # [round][run] -> (wall, cpu)
+    for k in range(rounds):
+        for tree in trees[k % len(trees) :] + trees[: k % len(trees)]:
+            env = {**os.environ, "PYTHONPATH": str(tree)}
+            cmd = [sys.executable, __file__, "--json", "--repeats", str(repeats), "--case", *cases]
+            done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=True)
+            report = json.loads(done.stdout.splitlines()[-1])
+            if Path(report["solver"]).resolve() != tree / "solver" / "__init__.py":
+                raise RuntimeError(f"the run on {tree} imported {report['solver']}")
+            for case in cases:
+                per_round[tree][case].append(report["samples"][case])
+    print(f"{rounds} processes per tree, {repeats} runs per process and case; ms per step, wall and CPU time;")
+    print("ratios to the first tree: of the medians / median of the per-round ratios (speed = 1 / time)")
+    for case in cases:
+        base = per_round[trees[0]][case]
+        for tree in trees:
+            rows = per_round[tree][case]
+            text = []
+            for m, what in enumerate(("wall", "CPU")):
+                med = statistics.median(run[m] for runs in rows for run in runs)
+                med0 = statistics.median(run[m] for runs in base for run in runs)
+                paired = statistics.median(
+                    statistics.median(r[m] for r in b) / statistics.median(r[m] for r in a)
+                    for a, b in zip(base, rows, strict=True)
+                )
+                text.append(f"{what} {med * 1e3:8.4f} time {med / med0:.3f} / {paired:.3f}")
+            print(f"{case:13s} {'  '.join(text)}  (n = {sum(map(len, rows))})  {tree}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("packages", nargs="*", default=["solver"], help="importable solver packages to time")
-    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--case", nargs="+", choices=list(CASES), default=list(CASES), help="cases to time")
+    ap.add_argument("--repeats", type=int, default=7, help="runs per case (per process with --against)")
+    ap.add_argument("--against", type=Path, nargs="+", help="folders holding other solver/ copies to compare with")
+    ap.add_argument("--rounds", type=int, default=6, help="processes per tree with --against")
     ap.add_argument("--kernels", action="store_true", help="time the film kernels one by one instead")
+    ap.add_argument("--json", action="store_true", help="print the samples as one JSON line")
     args = ap.parse_args()
     if args.kernels:
-        for pkg, times in kernel_times(args.packages, args.repeats).items():
-            print(f"{pkg:14s}", "  ".join(f"{k} {v * 1e6:.1f} us" for k, v in times.items()))
+        print("  ".join(f"{k} {v * 1e6:.1f} us" for k, v in kernel_times(args.repeats).items()))
         return
-    timers = {pkg: run_timer(pkg) for pkg in args.packages}
-    samples: dict[str, list[float]] = {pkg: [] for pkg in args.packages}
-    impacts: dict[str, list] = {}
-    for _ in range(args.repeats):
-        for pkg, once in timers.items():
-            per_step, impacts[pkg] = once()
-            samples[pkg].append(per_step)
-    base = statistics.median(samples[args.packages[0]])
-    for pkg in args.packages:
-        med = statistics.median(samples[pkg])
-        print(
-            f"{pkg:14s} median {med * 1e3:.4f} ms/step  (min {min(samples[pkg]) * 1e3:.4f}, "
-            f"{len(impacts[pkg])} impacts)  {med / base:.3f} x the first"
-        )
-    if len(args.packages) > 1:
-        ref = impacts[args.packages[0]]
-        for pkg in args.packages[1:]:
-            other = impacts[pkg]
-            if [a.corner for a in other] != [b.corner for b in ref]:
-                print(f"{pkg} vs {args.packages[0]}: different impact sequences")
-                continue
-            pairs = list(zip(other, ref, strict=True))
-            dq = max((abs(a.impulse - b.impulse) / abs(b.impulse) for a, b in pairs), default=0.0)
-            dt = max((abs(a.time - b.time) / abs(b.time) for a, b in pairs), default=0.0)
-            print(f"{pkg} vs {args.packages[0]}: same corners, max rel. difference impulse {dq:.2e}, time {dt:.2e}")
+    if args.against is not None:
+        compare(args.against, args.case, args.rounds, args.repeats)
+        return
+    samples = step_times(args.case, args.repeats)
+    if args.json:
+        import solver
+
+        print(json.dumps({"solver": solver.__file__, "samples": samples}))
+        return
+    for case, values in samples.items():
+        wall, cpu = (statistics.median(v[m] for v in values) for m in (0, 1))
+        print(f"{case:13s} median {wall * 1e3:.4f} ms/step wall, {cpu * 1e3:.4f} CPU  ({len(values)} runs)")
 
 
 if __name__ == "__main__":

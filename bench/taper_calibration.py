@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.cli import DEFAULT_SCENE
-from pipeline.config import load_scene
+from pipeline.config import DEFAULT_SCENE, load_scene
 from solver.rails.film import make_film
 from solver.rails.steady import fly
 

@@ -13,9 +13,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from solver.kinds import field_metadata, scene_from_dict, sections_of
+from solver.kinds import DEFAULT_KIND, field_metadata, scene_from_dict, sections_of
 from solver.params import ParameterError
-from solver.rails.params import Scene
 
 
 class ConfigError(ParameterError):
@@ -38,7 +37,7 @@ def parse_override(text: str) -> tuple[str, Any]:
 def apply_overrides(data: dict[str, Any], overrides: list[str] | dict[str, Any], *, source: str) -> dict[str, Any]:
     """Set dotted keys in a nested scene dict; an unknown key is an error naming it."""
     out = copy.deepcopy(data)
-    kind = data.get("kind", "rails")
+    kind = data.get("kind", DEFAULT_KIND)
     try:
         sections = sections_of(kind)
     except ParameterError as err:
@@ -60,7 +59,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str] | dict[str, Any],
     return out
 
 
-def _default_of(key: str, kind: str = "rails") -> Any:
+def _default_of(key: str, kind: str = DEFAULT_KIND) -> Any:
     section, _, name = key.partition(".")
     return getattr(sections_of(kind)[section](), name)
 
@@ -75,7 +74,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: not valid TOML ({err})") from None
 
 
-def load_scene(path: str | Path, overrides: list[str] | dict[str, Any] | None = None) -> Scene:
+def load_scene(path: str | Path, overrides: list[str] | dict[str, Any] | None = None) -> Any:
     """Read a scene file, apply ``--set`` overrides, validate."""
     data = read_toml(path)
     if "study" in data or "axes" in data:
@@ -90,7 +89,7 @@ def check_scene_file(data: dict[str, Any], path: str | Path) -> None:
 
     Without this an empty (or section-less) file would silently run the built-in defaults.
     """
-    kind = data.get("kind", "rails")
+    kind = data.get("kind", DEFAULT_KIND)
     try:
         sections = sections_of(kind)
     except ParameterError as err:
@@ -128,11 +127,17 @@ def dump_toml(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def scene_toml(scene: Scene) -> str:
+def scene_toml(scene: Any) -> str:
     """The complete scene (every parameter) as TOML text."""
     return dump_toml(scene.to_dict())
 
 
-def scene_hash(scene: Scene) -> str:
+def scene_hash(scene: Any) -> str:
     """Stable short hash of every parameter of a scene."""
     return hashlib.sha256(json.dumps(scene.to_dict(), sort_keys=True).encode()).hexdigest()[:16]
+
+
+DEFAULT_SCENE = Path(__file__).resolve().parent.parent / "studies" / "scenes" / "benson1989.toml"
+
+
+RESULTS = Path(__file__).resolve().parent.parent / "results"

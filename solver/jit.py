@@ -23,7 +23,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -31,15 +31,25 @@ FASTMATH = {"contract", "arcp", "nsz"}
 JIT_DISABLED = os.environ.get("HDI_DISABLE_JIT", "0") not in ("", "0", "false", "False")
 
 
+def source_fingerprint(paths: Iterable[str | Path]) -> str:
+    """SHA-256 (hex) of the names and contents of source files, in the order given.
+
+    The one fingerprint of code the solver uses: numba's cache folder (:func:`kernels_fingerprint`) and the
+    keys of the tables the air-bearing models store (:mod:`solver.rails.bearings`), so that an edit to any
+    file behind a cached result invalidates it.
+    """
+    digest = hashlib.sha256()
+    for path in map(Path, paths):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
 @functools.cache
 def kernels_fingerprint() -> str:
     """Hash of every kernel module (and this one): the name of the on-disk cache the kernels compile into."""
     here = Path(__file__).resolve().parent
-    digest = hashlib.sha256()
-    for path in [here / "jit.py", *sorted((here / "kernels").glob("*.py"))]:
-        digest.update(path.name.encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
+    return source_fingerprint([here / "jit.py", *sorted((here / "kernels").glob("*.py"))])[:16]
 
 
 def _use_fingerprinted_cache(numba: Any) -> None:

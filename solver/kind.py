@@ -17,7 +17,8 @@ class SceneKind:
 
     ``fly(scene)`` returns the steady flight; ``start(scene)`` the steady flight a run starts from (the same,
     or a documented fallback); ``simulate(scene, steady=None, **inputs)`` a flat result with ``t``, states,
-    ``status``, ``message`` and ``work``.  ``steady_free`` names the keys a run may change and still reuse a
+    ``status``, ``message`` and ``work``.  ``tiny()`` is the cheapest scene of the kind that flies and runs (the
+    kernels' warm-up, and the registry's tests).  ``steady_free`` names the keys a run may change and still reuse a
     steady flight: a section mapped to None is free as a whole, otherwise the listed keys of it are.
     """
 
@@ -30,6 +31,7 @@ class SceneKind:
     simulate: Callable[..., Any]
     steady_free: Mapping[str, tuple[str, ...] | None]
     series: Mapping[str, tuple[str, str]]
+    tiny: Callable[[], Any]
     warm_up: Callable[[], None]
 
     def steady_key(self, scene_dict: dict[str, Any]) -> str:

@@ -64,7 +64,11 @@ def _allowed_text(meta: dict[str, Any]) -> str:
     return text
 
 
-def _check_field(section: str, f: dataclasses.Field, value: Any) -> None:
+def check_field(section: str, f: dataclasses.Field, value: Any) -> None:
+    """Check ``value`` against the type, range and choices declared by :func:`quantity` on field ``f``.
+
+    Raises :class:`ParameterError` naming the dotted key ``section.name``, the allowed values and the units.
+    """
     meta = f.metadata
     key = f"{section}.{f.name}"
     units = f" [{meta['units']}]" if meta.get("units") not in (None, "", "1") else ""
@@ -109,7 +113,7 @@ class Section:
             if type(f.default) is float and isinstance(value, int) and not isinstance(value, bool):
                 object.__setattr__(self, f.name, float(value))
                 value = float(value)
-            _check_field(self.section, f, value)
+            check_field(self.section, f, value)
 
     def to_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}

@@ -9,7 +9,7 @@ with the inverse Knudsen number (lambda0: mean free path at the ambient p0)
 
     D = (sqrt(pi)/2) p h / (p0 lambda0) = (sqrt(pi)/2) / Kn,   Kn = lambda0 p0 / (p h).
 
-Slip laws, chosen by name (:data:`SLIP_MODELS`); the maths, the
+Slip laws, chosen by name (:data:`SLIP_LAWS`); the maths, the
 Fukui-Kaneko fit and its continuation below D = 0.01 are in
 :mod:`solver.kernels.slip`:
 
@@ -40,14 +40,32 @@ Wu, L., Bogy, D. B. Bounded slip law for near-contact films in the CML
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .kernels.slip import SLIP_NAMES, fk_flow_rate_array, flow_factor_array
 
-#: Slip-law names; the position of a name is its integer code in the kernels.
-SLIP_MODELS: tuple[str, ...] = SLIP_NAMES
-#: Name -> integer code passed to :func:`solver.kernels.slip.flow_factor`.
-SLIP_CODES: dict[str, int] = {name: code for code, name in enumerate(SLIP_MODELS)}
+
+@dataclass(frozen=True)
+class SlipLaw:
+    """A slip law: its integer code in the kernels, and the coefficients (c1, c2) of its polynomial flow
+    factor D = H^3 P + c1 Kn H^2 + c2 Kn^2 H / P where it has one (the rails film uses that form; the
+    Fukui-Kaneko law has none and runs on the "abs" film only)."""
+
+    code: int
+    coefficients: tuple[float, float] | None
+
+
+#: The slip laws by name: the one registry (each kind's parameters offer the laws its film can run).
+SLIP_LAWS: dict[str, SlipLaw] = {
+    "continuum": SlipLaw(SLIP_NAMES.index("continuum"), (0.0, 0.0)),
+    "first_order": SlipLaw(SLIP_NAMES.index("first_order"), (6.0, 0.0)),
+    "second_order": SlipLaw(SLIP_NAMES.index("second_order"), (6.0, 6.0)),
+    "fukui_kaneko": SlipLaw(SLIP_NAMES.index("fukui_kaneko"), None),
+}
+#: Names of the laws with a polynomial flow factor.
+POLYNOMIAL_SLIP_LAWS = tuple(name for name, law in SLIP_LAWS.items() if law.coefficients is not None)
 
 #: Spacing scale of the physical-unit wrapper [m]; phi does not depend on it.
 _H_REF = 1.0e-9
@@ -56,9 +74,9 @@ _H_REF = 1.0e-9
 def slip_code(name: str) -> int:
     """Integer code of the slip law ``name``; ValueError naming the allowed names if unknown."""
     try:
-        return SLIP_CODES[name]
+        return SLIP_LAWS[name].code
     except (KeyError, TypeError):
-        raise ValueError(f"unknown slip law {name!r}; allowed: {', '.join(SLIP_MODELS)}") from None
+        raise ValueError(f"unknown slip law {name!r}; allowed: {', '.join(SLIP_LAWS)}") from None
 
 
 def inverse_knudsen(p: np.ndarray | float, h: np.ndarray | float, p0: float, mean_free_path: float) -> np.ndarray:
@@ -107,7 +125,7 @@ def flow_factor(
     Parameters
     ----------
     name : str
-        One of :data:`SLIP_MODELS`.
+        One of :data:`SLIP_LAWS`.
     p : array_like [Pa]
         Local pressure (broadcast against ``h``).
     h : array_like [m]

@@ -41,12 +41,12 @@ from scipy.optimize import brentq
 
 from solver.abs.face import abs_grid, depth, inside_polygon, region_geometry
 from solver.abs.film import AbsFilm
-from solver.abs.params import ABS_SLIP_MODELS, AbsScene
+from solver.abs.params import AbsScene
 from solver.abs.steady import fly_start
 from solver.kernels import film as kernels_film
 from solver.kinds import scene_from_dict
 from solver.params import ParameterError
-from solver.slip import SLIP_CODES, flow_factor
+from solver.slip import SLIP_LAWS, flow_factor
 
 SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"
 
@@ -218,6 +218,7 @@ def test_width_from_replaces_the_y_extent():
     assert v[:, 1].min() == pytest.approx(0.1e-3, abs=1e-15) and v[:, 1].max() == pytest.approx(0.2e-3, abs=1e-15)
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("subcells", [8, 16, 64])
 def test_step_inside_a_cell_gives_its_area_fraction(subcells):
     """A step crossing a control volume: its node depth is base + (depth - base) f with f the area fraction.
@@ -316,6 +317,7 @@ def test_etched_volume_converges_at_first_order():
 # film: invariants ------------------------------------------------------------------------------------------
 
 
+@pytest.mark.jitless
 def test_flat_parallel_slider_has_ambient_pressure():
     """Couette flow without a wedge generates no pressure: a flat parallel face at zero pitch and roll has P = 1."""
     for skew in (0.0, 6.65):
@@ -324,6 +326,7 @@ def test_flat_parallel_slider_has_ambient_pressure():
         assert np.all(np.abs(film.forces()) <= 1e-15)
 
 
+@pytest.mark.jitless
 def test_symmetric_face_without_skew_has_no_roll_moment(coarse_attitude):
     """chen_bogy2007 is symmetric in y: at zero skew and zero roll the roll moment vanishes to round-off.
 
@@ -336,6 +339,7 @@ def test_symmetric_face_without_skew_has_no_roll_moment(coarse_attitude):
     assert abs(roll_moment) <= 1e-12 * force * WIDTH
 
 
+@pytest.mark.jitless
 def test_skew_gives_a_roll_moment(coarse_attitude):
     """The skewed disk velocity (cross flow) breaks the y symmetry: |M_r| / (F W) = 1.4e-3 measured at 6.65 deg."""
     q = coarse_attitude * [1.0, 1.0, 0.0]
@@ -394,7 +398,8 @@ def bearing_number(scene: AbsScene, spacing: float) -> float:
     return 6 * scene.air.viscosity * scene.disk.speed * LENGTH / (scene.air.ambient_pressure * spacing**2)
 
 
-@pytest.mark.parametrize("slip", ABS_SLIP_MODELS)
+@pytest.mark.jitless
+@pytest.mark.parametrize("slip", tuple(SLIP_LAWS))
 def test_wide_wedge_follows_the_1d_reynolds_equation(slip):
     """Centre line of an inclined slider 4x wider than long = the 1-D compressible slider, second order in dx.
 
@@ -475,6 +480,7 @@ def step_load_error_in_cells(nx: int, subcells: int) -> float:
     return abs(load_h - load) / ((peak - 1.0) / (nx - 1))
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize(
     "subcells",
     [
@@ -504,6 +510,7 @@ def test_step_bearing_load_within_a_cell(subcells):
     assert max(shifts) <= 1.5, shifts
 
 
+@pytest.mark.jitless
 def test_chen_bogy_load_settles_under_refinement(coarse_attitude):
     """At a fixed attitude the film load of chen_bogy2007 changes by less than 5 % per x refinement (ny = 51).
 
@@ -566,7 +573,7 @@ def test_film_relaxes_to_the_steady_state(coarse_attitude):
 
 
 @pytest.mark.skipif(not hasattr(kernels_film.face_flux, "py_func"), reason="JIT disabled: nothing compiled")
-@pytest.mark.parametrize("slip", ABS_SLIP_MODELS)
+@pytest.mark.parametrize("slip", tuple(SLIP_LAWS))
 def test_compiled_film_flux_matches_its_python_source(slip):
     """The compiled face flux equals its Python source calling the current slip kernel (no stale machine code).
 
@@ -576,7 +583,7 @@ def test_compiled_film_flux_matches_its_python_source(slip):
     cache is on disk (measured here for fukui_kaneko: 1.5e-3 relative, the
     pre-04b685f fit that jumps at D = 5; delete the film kernels' cache).
     """
-    code = SLIP_CODES[slip]
+    code = SLIP_LAWS[slip].code
     for p_left, p_right, h_face in ((1.33, 1.3242, 25.62), (1.33, 1.3242, 2.562), (12.0, 11.0, 0.5), (1.0, 1.0, 0.05)):
         args = (p_left, p_right, h_face, 1600.0, 1.0e4, 6.5, 1e-8, 0.3e-9, code)
         compiled = np.array(kernels_film.face_flux(*args))
@@ -631,7 +638,8 @@ def test_editing_a_kernel_module_recompiles_its_callers(tmp_path):
 # film: slip laws -------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("slip", [m for m in ABS_SLIP_MODELS if m != "continuum"])
+@pytest.mark.jitless
+@pytest.mark.parametrize("slip", [m for m in tuple(SLIP_LAWS) if m != "continuum"])
 def test_rarefaction_reduces_the_load(slip, coarse_attitude):
     """Slip raises the Poiseuille flow (phi > 1): at a fixed attitude both the lift and the suction shrink.
 

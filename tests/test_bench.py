@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from conftest import cf_errors
 
-from pipeline.bench import cost_at_error, observed_orders
+from pipeline.bench.rails import cost_at_error, observed_orders
 from pipeline.cli import main
-from pipeline.store import open_result
+from pipeline.data.netcdf import open_result
 
 
 @pytest.mark.parametrize("order", [1.0, 2.0, 2.7])

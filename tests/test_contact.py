@@ -11,20 +11,28 @@ import dataclasses
 
 import numpy as np
 import pytest
-from conftest import EPS, SCENE1_ATTITUDE
+from conftest import EPS, SCENE1_ATTITUDE, small_scene
 
+from solver.jit import JIT_DISABLED
+from solver.rails import contact as contact_module
+from solver.rails import integrate
 from solver.rails.contact import (
     CONTACT_LAWS,
     ContactError,
+    SustainedContact,
     corner_normal,
     impact_map,
     impulse_direction,
+    resolve_impacts,
     restitution_impact,
     surface_slope,
 )
 from solver.rails.dynamics import kinetic_energy, mass_matrix
 from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
-from solver.rails.params import Contact, Models, Scene
+from solver.rails.params import Contact, Models, Scene, Slider
+
+#: Fast enough to run a second time with the JIT off (HDI_DISABLE_JIT=1, .ci/run).
+pytestmark = pytest.mark.jitless
 
 CORNER_INDICES = list(range(len(CORNERS)))
 
@@ -203,3 +211,112 @@ def test_friction_beyond_the_painleve_limit_raises(corner):
     else:
         assert slope > 0.0
         assert impact_map(SCENE1_ATTITUDE, v, corner, scene_with(mu=1e3, alpha=0.8))[1] > 0.0
+
+
+# ---------------------------------------------------------------------------- the run's resolution
+
+
+def touching_attitude(rng, scene, corner):
+    """A random attitude (scene-1 magnitudes) whose ``corner`` sits exactly at the asperity height, the others above."""
+    corners = corner_positions(scene.slider)
+    h0 = scene.disk.asperity_height
+    while True:
+        pitch, roll = rng.normal(0.0, [100e-6, 50e-6])
+        x1, x2 = corners[corner]
+        q = np.array([h0 + x1 * pitch + x2 * roll, pitch, roll])
+        others = np.delete(corners, corner, axis=0)
+        if np.all(q[0] - others[:, 0] * pitch - others[:, 1] * roll > h0 + 1e-9):
+            return q
+
+
+def lone_corner_case(rng, scene, corner):
+    """(q, v): ``corner`` touching and approaching (U + eps V > 1e-4 m/s), every other corner clear."""
+    q = touching_attitude(rng, scene, corner)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    eps = surface_slope(scene, corner, float(q[1]))
+    while True:
+        v = rng.normal(0.0, [0.02, 10.0, 20.0])
+        if -corner_normal(x1, x2) @ v + eps * scene.disk.speed > 1e-4:
+            return q, v
+
+
+def free_contact(scene):
+    normals = np.array([corner_normal(x1, x2) for x1, x2 in corner_positions(scene.slider)])
+    minv = np.linalg.inv(mass_matrix(scene.slider))
+    return SustainedContact(scene, normals, minv, scene.disk.asperity_height)
+
+
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+@pytest.mark.parametrize(("mu", "alpha"), [(0.0, 0.85), (0.5, 0.85), (0.5, 0.0), (0.3, 1.0), (1.5, 0.5)])
+@pytest.mark.parametrize("rule", ["on", "off"])
+def test_lone_corner_resolution_is_the_impact_map(corner, mu, alpha, rule):
+    # the run resolves impacts with resolve_impacts (several corners at once, holds); with one free corner
+    # touching and approaching, and the chattering rule not applying (off, or the corner not pressed on),
+    # it must be the single-corner law impact_map
+    rest_velocity = 0.0 if rule == "off" else Contact().rest_velocity
+    scene = scene_with(mu=mu, alpha=alpha, wedging=True, rest_velocity=rest_velocity)
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    rng = np.random.default_rng(1000 * corner + int(100 * mu) + int(10 * alpha))
+    h0 = scene.disk.asperity_height
+    touch_tol = 1e-9 * h0
+    minv = np.linalg.inv(mass_matrix(scene.slider))
+    for _ in range(20):
+        q, v = lone_corner_case(rng, scene, corner)
+        # the rule off: any acceleration; on: the film lifts the corner (n . a > 0), so it is not pressed on
+        acc = rng.normal(0.0, [1e3, 1e6, 1e6])
+        if rule == "on" and n @ acc <= 0.0:
+            acc = -acc
+        contact = free_contact(scene)
+        impacts = []
+        v_run = resolve_impacts(scene, q, v.copy(), 1e-6, contact, acc, impacts, touch_tol)
+        v_map, impulse = impact_map(q, v, corner, scene, minv)
+        assert impulse > 0.0
+        assert [(i.time, i.corner) for i in impacts] == [(1e-6, corner)]
+        assert impacts[0].impulse == pytest.approx(impulse, rel=1e-12, abs=0)
+        np.testing.assert_allclose(v_run, v_map, rtol=0, atol=1e-12 * np.max(np.abs(v) + np.abs(v_map)))
+        relative = -n @ v + surface_slope(scene, corner, float(q[1])) * scene.disk.speed
+        assert impacts[0].approach_before == pytest.approx(relative, rel=1e-12, abs=0)
+        assert not contact.any_held
+
+
+@pytest.mark.parametrize("corner", [c for c in CORNER_INDICES if corner_is_front(Slider())[c]])
+def test_lone_corner_resolution_shares_the_painleve_limit(corner):
+    # beyond the limit (the front corners have one) both refuse the impact
+    base = scene_with(mu=0.0, alpha=0.8)
+    x1, x2 = corner_positions(base.slider)[corner]
+    n = corner_normal(x1, x2)
+    minv = np.linalg.inv(mass_matrix(base.slider))
+    e = base.slider.friction_lever
+    G0 = n @ minv @ impulse_direction(x1, x2, 0.0, e)
+    slope = n @ minv @ (impulse_direction(x1, x2, 1.0, e) - impulse_direction(x1, x2, 0.0, e))
+    scene = scene_with(mu=-1.01 * G0 / slope, alpha=0.8)
+    q, v = lone_corner_case(np.random.default_rng(70 + corner), scene, corner)
+    with pytest.raises(ContactError):
+        impact_map(q, v, corner, scene)
+    with pytest.raises(ContactError, match="Painleve"):
+        resolve_impacts(scene, q, v, 0.0, free_contact(scene), np.zeros(3), [], 1e-9 * scene.disk.asperity_height)
+
+
+@pytest.mark.skipif(JIT_DISABLED, reason="a whole run: 40 s in pure Python; the JIT-off pass checks the laws")
+def test_runs_resolve_every_impact_through_contact_resolve_impacts(monkeypatch):
+    # the source case (mu 0.5, alpha 0.85) on the small grid: every impact the run records is one that
+    # solver.rails.contact.resolve_impacts appended, through the name the integrator calls
+    assert integrate.resolve_impacts is contact_module.resolve_impacts
+    seen = []
+    calls = []
+
+    def counting(scene, q, v, t, contact, acc, impacts, touch_tol):
+        n_before = len(impacts)
+        out = contact_module.resolve_impacts(scene, q, v, t, contact, acc, impacts, touch_tol)
+        calls.append(t)
+        seen.extend(impacts[n_before:])
+        return out
+
+    monkeypatch.setattr(integrate, "resolve_impacts", counting)
+    r = integrate.simulate(small_scene(contact=Contact(mu=0.5, alpha=0.85)))
+    assert r.status == 0, r.message
+    assert len(r.impacts) >= 5
+    assert r.work["impacts"] == len(r.impacts) == len(seen)
+    assert all(a is b for a, b in zip(seen, r.impacts, strict=True))
+    assert len(calls) >= len({i.time for i in r.impacts})

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.profiles import read_profile, write_profile
+from pipeline.data.profiles import read_profile, write_profile
 from solver.disk import (
     ACF_SHAPES,
     DiskProfile,
@@ -36,6 +36,9 @@ from solver.disk import (
     window_statistics,
 )
 from solver.kernels.disk import fill_disk_heights, sample_periodic
+
+#: Fast enough to run a second time with the JIT off (HDI_DISABLE_JIT=1, .ci/run).
+pytestmark = pytest.mark.jitless
 
 L_CORR = 50e-9  # correlation length [m]
 SPACING = L_CORR / 8

@@ -44,6 +44,7 @@ def exact_first_crossing(gap0, rate, curvature, s_max):
     return min(downward, default=math.inf)
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize(
     ("gap0", "rate", "curvature"),
     [
@@ -69,11 +70,13 @@ def test_first_crossing_is_the_exact_downward_root(gap0, rate, curvature):
         assert abs(gap0 + rate * s + 0.5 * curvature * s * s) <= 8 * EPS * terms
 
 
+@pytest.mark.jitless
 def test_first_crossing_respects_the_step():
     assert math.isinf(km.first_crossing(1.0, -1.0, 0.0, 0.5))
     assert km.first_crossing(1.0, -1.0, 0.0, 1.0) == 1.0
 
 
+@pytest.mark.jitless
 def test_first_event_picks_the_earliest_corner():
     normals = np.array([[1.0, -x1, -x2] for x1, x2 in corner_positions(Slider())])
     q = np.array([0.115e-6, 13.5e-6, 0.0])
@@ -91,6 +94,7 @@ def test_first_event_picks_the_earliest_corner():
 # ---------------------------------------------------------------------------- free flight
 
 
+@pytest.mark.jitless
 def test_free_flight_is_uniform_motion():
     # no film, no preload, no suspension moments: q(t) = q0 + v0 t, v constant, with the real
     # (coupled) mass matrix; the velocities keep every corner away from the disk
@@ -140,6 +144,7 @@ def analytic_bounces(scene, steady, count):
     return np.array(times), speeds, (1.0 + alpha) * m * speeds
 
 
+@pytest.mark.jitless
 def test_bouncing_point_mass_impact_times_and_impulses():
     scene, steady = bouncing_mass(t_end=29e-6)
     r = simulate(scene, steady)
@@ -164,6 +169,7 @@ def test_bouncing_point_mass_impact_times_and_impulses():
     assert np.all(np.abs(r.q[falling, 0] - expected) <= 64 * EPS * steady.z)
 
 
+@pytest.mark.jitless
 def test_chattering_without_the_rule_stops_on_the_impact_limit():
     # alpha < 1 under a constant load: infinitely many impacts before
     # t_inf = t1 + 2 u1 alpha / ((1 - alpha) F/m); with the chattering rule off
@@ -187,6 +193,7 @@ def test_chattering_without_the_rule_stops_on_the_impact_limit():
     assert max(imp.time for imp in r.impacts) <= t_inf * (1.0 + 1e-12)
 
 
+@pytest.mark.jitless
 def test_output_samples_are_uniform_when_an_impact_lands_just_before_a_sample():
     # The driver promises samples on the uniform grid t = k * output_interval.  Put the first
     # impact 5e-4 dt before the 100th grid instant: the sample there must still be stored.
@@ -202,6 +209,7 @@ def test_output_samples_are_uniform_when_an_impact_lands_just_before_a_sample():
     np.testing.assert_allclose(r.t, np.arange(n_grid + 1) * dt, rtol=1e-12)
 
 
+@pytest.mark.jitless
 def test_output_interval_is_honoured_or_rejected():
     # numerics.output_interval is "the sampling interval of stored time series": a value that is
     # not a multiple of dt must either be rejected or give samples that far apart
@@ -216,6 +224,7 @@ def test_output_interval_is_honoured_or_rejected():
 # ---------------------------------------------------------------------------- scene 1
 
 
+@pytest.mark.jitless
 def test_steady_flight_is_an_equilibrium_of_the_integrator(scene1):
     # zero disturbance: film and suspension balance, so the slider stays put.  The steady
     # pressure is converged to steady_tol p0, which bounds the force imbalance and hence the drift.
@@ -236,6 +245,7 @@ def test_steady_flight_is_an_equilibrium_of_the_integrator(scene1):
     assert np.all(np.abs(r.v) <= acc * t_end)
 
 
+@pytest.mark.jitless
 def test_fly_balances_the_printed_suspension():
     # calibration 'none': Newton on the attitude with the printed preload and no gimbal moments
     scene = small_scene(calibration=Calibration(mode="none"))
@@ -260,6 +270,7 @@ def scene1_run(scene1):
     return scene, simulate(scene)
 
 
+@pytest.mark.jitless
 def test_scene1_impacts(scene1_run):
     scene, r = scene1_run
     assert r.status == 0, r.message
@@ -277,6 +288,7 @@ def test_scene1_impacts(scene1_run):
     assert r.min_spacing.min() >= scene.disk.asperity_height * (1.0 - 1e-9)
 
 
+@pytest.mark.jitless
 def test_scene1_work_counters(scene1_run):
     scene, r = scene1_run
     num = scene.numerics

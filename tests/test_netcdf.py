@@ -9,8 +9,8 @@ import pytest
 import xarray as xr
 from conftest import cf_errors
 
+from pipeline.data.netcdf import TIME_UNITS, cf_encode, open_result, var, write_netcdf
 from pipeline.provenance import base_attrs
-from pipeline.store import TIME_UNITS, cf_encode, open_result, var, write_netcdf
 
 RESULTS = Path(__file__).resolve().parents[1] / "results"
 

@@ -67,6 +67,7 @@ def start_at(scene: AbsScene, q) -> AbsSteady:
         pressure=np.full(grid.shape, scene.air.ambient_pressure),
         x=grid.x,
         y=grid.y,
+        depth=grid.depth,
         iterations=0,
         reynolds_solves=0,
         force_residual=0.0,
@@ -166,6 +167,7 @@ def drop(dt: float, *, pitch: float = 0.0, mu: float = 0.0, rho: float | None = 
     return scene, result, energies(scene, result)
 
 
+@pytest.mark.jitless
 def test_flat_bounce_is_the_analytic_hertz_impact():
     """A flat face hitting a GW wall is a 1-DOF Hertzian impact: penetration, contact time, rebound speed v0.
 
@@ -190,6 +192,7 @@ def test_flat_bounce_is_the_analytic_hertz_impact():
     assert np.max(np.abs(result.v[:, 1:])) < 1e-12
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("rho", [1.0, None], ids=["trapezoidal", "default"])
 def test_contact_energy_error_shrinks_with_dt(rho):
     """The rebound kinetic energy tends to the approach one as dt -> 0; the default integrator never creates energy.
@@ -212,6 +215,7 @@ def test_contact_energy_error_shrinks_with_dt(rho):
         assert max(changes) <= 1e-12, changes
 
 
+@pytest.mark.jitless
 def test_stiff_landing_creates_no_energy():
     """chen_bogy2007's trailing pad landing at 1 mm/s on real asperities (no air, no suspension): no energy created.
 
@@ -262,6 +266,7 @@ def friction_work(scene: AbsScene, result: AbsResult) -> float:
     return float(np.sum(0.5 * (friction[1:] + friction[:-1]) * (np.diff(result.q, axis=0) @ arm)))
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("mu", [0.0, 0.3])
 def test_pitched_bounce_energy_and_impulse_balance(mu):
     """Slider pitched 20 urad landing on its trailing edge (then its leading edge): energy and momentum balance.
@@ -308,6 +313,7 @@ def coarse_flight():
     return scene, film, SurfaceModel(scene, film.grid), steady.q
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("sigma", [0.0, 0.2e-9, 0.6e-9])
 @pytest.mark.parametrize("drop_by", [2.0e-9, 4.3e-9, 5.0e-9])
 def test_surface_jacobian_matches_central_differences(coarse_flight, sigma, drop_by):
@@ -344,6 +350,7 @@ def test_surface_jacobian_matches_central_differences(coarse_flight, sigma, drop
     assert errors[0] < 1e-6 or errors[1] < 0.03 * errors[0], errors
 
 
+@pytest.mark.jitless
 def test_adhesion_on_the_flying_pad_is_not_truncated(coarse_flight):
     """The adhesion force at steady flight equals the sum over all cells of p_a A within 0.1 % of the preload."""
     scene, film, surface, q = coarse_flight
@@ -445,6 +452,7 @@ def rough_track():
     return scene, grid, Track(scene, grid)
 
 
+@pytest.mark.jitless
 def test_track_moves_rigidly_with_the_disk(rough_track):
     """At zero skew the resolved disk under node k at t + (x_k - x_i)/V is the one under node i at t.
 
@@ -470,14 +478,13 @@ def test_track_moves_rigidly_with_the_disk(rough_track):
 
 
 def test_track_variance_is_resolved_plus_unresolved(rough_track):
-    """Steady sigma is the disk RMS, and over one track period z_d^2 + sigma^2 averages to RMS^2 at every node.
+    """Over one track period z_d^2 + sigma^2 averages to RMS^2 at every node.
 
     The window filter splits the variance between the resolved surface and
     the statistical roughness; the linear interpolation between profile
     samples removes a little (measured at most 3.8e-4 of RMS^2).
     """
     scene, grid, track = rough_track
-    assert np.all(track.steady_sigma(grid.shape) == scene.disk.rms)
     n = track.profile.heights.size
     total = np.zeros(grid.shape)
     for m in range(n):

@@ -11,9 +11,10 @@ import xarray as xr
 from conftest import cf_errors
 
 from pipeline.classify import classify_impulses
-from pipeline.cli import DEFAULT_SCENE, main
-from pipeline.config import ConfigError, load_scene, parse_override, scene_toml
-from pipeline.store import open_result, run_dataset, write_netcdf
+from pipeline.cli import main
+from pipeline.config import DEFAULT_SCENE, ConfigError, load_scene, parse_override, scene_toml
+from pipeline.data.netcdf import open_result, write_netcdf
+from pipeline.data.rails import run_dataset
 from solver.errors import ContactError
 from solver.kinds import scene_from_dict
 from solver.params import ParameterError

@@ -21,8 +21,11 @@ from conftest import EPS, SCENE1_ATTITUDE, inclined_slider_arrays, small_scene
 
 from solver.grid import control_volume_widths
 from solver.kernels import reynolds as kr
-from solver.rails.film import SLIP_LAWS, make_film, steady_newton
+from solver.rails.film import make_film, steady_newton
 from solver.rails.params import Numerics
+from solver.slip import POLYNOMIAL_SLIP_LAWS, SLIP_LAWS
+
+COEFFICIENTS = {name: SLIP_LAWS[name].coefficients for name in POLYNOMIAL_SLIP_LAWS}
 
 # ---------------------------------------------------------------------------- helpers
 
@@ -178,6 +181,7 @@ BERNOULLI_POINTS = [0.0, 1e-300, 1e-12, 1e-6, 0.1, 0.5, 0.9, 1.0 - 1e-15, 1.0, 1
 BERNOULLI_POINTS += [37.0, 100.0, 500.0, 699.9, 700.0]
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("x", BERNOULLI_POINTS)
 def test_bernoulli_function_to_a_few_ulp(x):
     # the series (x < 1) and the exponential form (x >= 1) each round to ~2 ulp
@@ -187,6 +191,7 @@ def test_bernoulli_function_to_a_few_ulp(x):
     assert abs(db - float(ref_db)) <= 4 * EPS * abs(float(ref_db))
 
 
+@pytest.mark.jitless
 def test_bernoulli_agrees_with_expm1_form_across_the_series_switch():
     xs = np.concatenate([np.linspace(1e-3, 3.0, 301), np.geomspace(3.0, 690.0, 50)])
     for x in xs:
@@ -199,6 +204,7 @@ def test_bernoulli_agrees_with_expm1_form_across_the_series_switch():
         assert abs(db - exact_db) <= (4 * EPS + 4 * EPS / x) * abs(exact_db)
 
 
+@pytest.mark.jitless
 def test_bernoulli_underflow_region():
     # above x = 700 the kernel returns 0: the true value is below B(700) = 7e-302
     for x in (700.1, 745.0, 1e4):
@@ -209,12 +215,13 @@ def test_bernoulli_underflow_region():
 # ---------------------------------------------------------------------------- residual, conservation
 
 
-@pytest.mark.parametrize("slip", sorted(SLIP_LAWS))
+@pytest.mark.jitless
+@pytest.mark.parametrize("slip", sorted(POLYNOMIAL_SLIP_LAWS))
 @pytest.mark.parametrize("y_flux", [True, False])
 def test_residual_matches_independent_flux_formula(slip, y_flux):
     rng = np.random.default_rng(1)
     x, y, P, H, Hx, Hy = random_film(rng)
-    c1, c2 = SLIP_LAWS[slip]
+    c1, c2 = SLIP_LAWS[slip].coefficients
     # Lambda = 300 puts the cell Peclet numbers in [0.1, 500]: both branches of B(x)
     lam, kn = 300.0, 0.3
     R = assemble(P, H, Hx, Hy, x, y, lam, kn, c1, c2, y_flux)[0]
@@ -222,7 +229,8 @@ def test_residual_matches_independent_flux_formula(slip, y_flux):
     assert np.all(np.abs(R - R_ref) <= 32 * EPS * scale)
 
 
-@pytest.mark.parametrize("slip", sorted(SLIP_LAWS))
+@pytest.mark.jitless
+@pytest.mark.parametrize("slip", sorted(POLYNOMIAL_SLIP_LAWS))
 def test_uniform_pressure_fluxes_telescope_to_the_boundary(slip):
     # with P = 1 only convection carries mass: the interior residuals must
     # sum to Lambda * (H at the outlet face - H at the inlet face) per column
@@ -230,7 +238,7 @@ def test_uniform_pressure_fluxes_telescope_to_the_boundary(slip):
     x, y, _, H, Hx, Hy = random_film(rng)
     P = np.ones_like(H)
     lam = 40.0
-    R = assemble(P, H, Hx, Hy, x, y, lam, 0.2, *SLIP_LAWS[slip], True)[0]
+    R = assemble(P, H, Hx, Hy, x, y, lam, 0.2, *SLIP_LAWS[slip].coefficients, True)[0]
     wy = control_volume_widths(y)[1:-1]
     expected = lam * np.sum((Hx[:, -1, 1:-1] - Hx[:, 0, 1:-1]) * wy, axis=1)
     total = R[:, 1:-1, 1:-1].sum(axis=(1, 2))
@@ -238,11 +246,12 @@ def test_uniform_pressure_fluxes_telescope_to_the_boundary(slip):
     np.testing.assert_allclose(total, expected, rtol=0, atol=64 * EPS * magnitude.max())
 
 
+@pytest.mark.jitless
 def test_random_pressure_fluxes_telescope_to_the_boundary():
     # exact conservation: interior faces cancel pairwise, only boundary-face fluxes remain
     rng = np.random.default_rng(3)
     x, y, P, H, Hx, Hy = random_film(rng)
-    lam, kn, (c1, c2) = 80.0, 0.1, SLIP_LAWS["second_order"]
+    lam, kn, (c1, c2) = 80.0, 0.1, SLIP_LAWS["second_order"].coefficients
     R = assemble(P, H, Hx, Hy, x, y, lam, kn, c1, c2, True)[0]
     F, G = reference_fluxes(P, Hx, Hy, x, y, lam, kn, c1, c2)
     wx, wy = control_volume_widths(x)[1:-1], control_volume_widths(y)[1:-1]
@@ -252,6 +261,7 @@ def test_random_pressure_fluxes_telescope_to_the_boundary():
     np.testing.assert_allclose(R[:, 1:-1, 1:-1].sum(axis=(1, 2)), boundary, rtol=0, atol=64 * EPS * scale.sum())
 
 
+@pytest.mark.jitless
 def test_assemble_overwrites_interior_and_never_touches_dirichlet_nodes():
     # the time stepper relies on this (no per-step zeroing)
     rng = np.random.default_rng(4)
@@ -269,12 +279,13 @@ def test_assemble_overwrites_interior_and_never_touches_dirichlet_nodes():
 # ---------------------------------------------------------------------------- Jacobian
 
 
-@pytest.mark.parametrize("slip", sorted(SLIP_LAWS))
+@pytest.mark.jitless
+@pytest.mark.parametrize("slip", sorted(POLYNOMIAL_SLIP_LAWS))
 @pytest.mark.parametrize("y_flux", [True, False])
 def test_jacobian_matches_central_differences(slip, y_flux):
     rng = np.random.default_rng(5)
     x, y, P, H, Hx, Hy = random_film(rng, nr=1, nx=8, ny=6)
-    c1, c2 = SLIP_LAWS[slip]
+    c1, c2 = SLIP_LAWS[slip].coefficients
     lam, kn = 300.0, 0.3
     out = assemble(P, H, Hx, Hy, x, y, lam, kn, c1, c2, y_flux)
     A = dense_jacobian(out[1:], P.shape)
@@ -320,6 +331,7 @@ def af_solve(diag, J, rhs, weight):
     return delta
 
 
+@pytest.mark.jitless
 def test_af_solve_is_exact_without_y_coupling():
     rng = np.random.default_rng(6)
     diag, J, rhs = film_step_system(rng, with_y=False)
@@ -333,6 +345,7 @@ def test_af_solve_is_exact_without_y_coupling():
     assert np.all(delta[boundary] == 0.0)
 
 
+@pytest.mark.jitless
 def test_af_solve_inverts_the_factorised_product():
     rng = np.random.default_rng(7)
     diag, J, rhs = film_step_system(rng, with_y=True)
@@ -361,6 +374,7 @@ PUBLISHED_LOADS = [
 PUBLISHED_ROUNDING = 0.5e-6
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize(("kn", "lam", "published"), PUBLISHED_LOADS)
 def test_inclined_slider_matches_published_loads(kn, lam, published):
     loads = [inclined_slider_load(n, lam, kn)[0] for n in (101, 201, 401)]
@@ -370,9 +384,10 @@ def test_inclined_slider_matches_published_loads(kn, lam, published):
     assert abs(extrapolated - published) <= PUBLISHED_ROUNDING + uncertainty
 
 
+@pytest.mark.jitless
 def test_slip_laws_order_the_load():
     # slip adds Poiseuille flow (D grows with c1 Kn and c2 Kn^2), so the film carries less load
-    loads = {slip: inclined_slider_load(101, 10.0, 0.1, c1=c1, c2=c2)[0] for slip, (c1, c2) in SLIP_LAWS.items()}
+    loads = {slip: inclined_slider_load(101, 10.0, 0.1, c1=c1, c2=c2)[0] for slip, (c1, c2) in COEFFICIENTS.items()}
     assert loads["continuum"] > loads["first_order"] > loads["second_order"] > 0.0
 
 
@@ -382,6 +397,7 @@ def incompressible_pressure(x, K):
     return 6.0 / (K - 1.0) * (1.0 / H - K / ((K + 1.0) * H**2) - 1.0 / (K + 1.0))
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("K", [2.0, 3.0])
 def test_incompressible_limit_load(K):
     exact = 6.0 * (np.log(K) / (K - 1.0) ** 2 - 2.0 / (K**2 - 1.0))
@@ -400,6 +416,7 @@ def test_incompressible_limit_load(K):
         assert abs(w_star - 0.158883) <= PUBLISHED_ROUNDING
 
 
+@pytest.mark.jitless
 def test_incompressible_limit_pressure_profile():
     # max-norm error of the nodal profile falls at second order; the peak 0.25 sits at H = 4/3 (X = 2/3)
     K = 2.0
@@ -423,6 +440,7 @@ def test_incompressible_limit_pressure_profile():
     assert abs(peak - 0.25) <= 2.0 * (uncertainty + compressibility) + 16 * EPS
 
 
+@pytest.mark.jitless
 def test_high_bearing_number_limit():
     # Lambda -> inf: P H = K except in an outlet layer of width ~1/Lambda, load -> K ln K / (K - 1) - 1.
     # At Lambda = 1e6 the layer is far thinner than any cell, so the error is the
@@ -451,6 +469,7 @@ def film1(scene1):
     return film
 
 
+@pytest.mark.jitless
 def test_symmetric_slider_has_no_roll_moment(film1, scene1):
     load, _, roll_moment = film1.generalized_forces()
     assert load > 0.0
@@ -467,6 +486,7 @@ def force_noise(scene):
     return scene.numerics.steady_tol * scene.air.ambient_pressure * 2.0 * s.rail_width * s.length
 
 
+@pytest.mark.jitless
 def test_roll_moment_is_odd_in_roll(scene1):
     film = make_film(scene1)
     roll = 2e-6
@@ -483,6 +503,7 @@ def test_roll_moment_is_odd_in_roll(scene1):
     assert up[2] < 0.0
 
 
+@pytest.mark.jitless
 def test_scene1_film_converges_at_second_order():
     # refine the clustered grid by 2 in every direction (the tanh maps are smooth, the
     # juncture stays on a node): load and pitch moment follow the scheme's order 2
@@ -518,6 +539,7 @@ def stiffness_matrix(film, q0):
     return K
 
 
+@pytest.mark.jitless
 def test_steady_flight_is_statically_stable(scene1):
     film = make_film(scene1)
     K = stiffness_matrix(film, SCENE1_ATTITUDE)
@@ -538,6 +560,7 @@ def test_steady_flight_is_statically_stable(scene1):
     assert abs(K[0, 2]) <= noise[2] and abs(K[1, 2]) <= noise[2] * scene1.slider.length
 
 
+@pytest.mark.jitless
 @pytest.mark.parametrize("direction", [-1.0, 1.0])
 def test_squeeze_film_resists_motion(scene1, direction):
     # a film squeezed by an approaching slider carries more than the steady film at the
@@ -556,6 +579,7 @@ def test_squeeze_film_resists_motion(scene1, direction):
     assert direction * (moving - steady.generalized_forces()[0]) < 0.0
 
 
+@pytest.mark.jitless
 def test_steady_pressure_is_a_fixed_point_of_the_film_step(film1, scene1):
     # R(P_steady) ~ 0, so a step at fixed attitude changes P by less than the steady tolerance
     P = film1.P.copy()

@@ -22,15 +22,15 @@ import pytest
 import xarray as xr
 from conftest import cf_errors
 
-from pipeline.boundary import BisectionPlanner
 from pipeline.cli import main
 from pipeline.config import ConfigError
-from pipeline.fanout import dask_client, execute, run_study
-from pipeline.ledger import Ledger
-from pipeline.runner import run_case
-from pipeline.store import open_result
-from pipeline.study import axis_range, load_study
-from pipeline.studyset import grid_boundary
+from pipeline.data.netcdf import open_result
+from pipeline.data.studyset import grid_boundary
+from pipeline.run.fanout import dask_client, execute, run_study
+from pipeline.run.ledger import Ledger
+from pipeline.run.runner import run_case
+from pipeline.study.boundary import BisectionPlanner
+from pipeline.study.spec import axis_range, load_study
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "studies" / "scenes" / "benson1989.toml"

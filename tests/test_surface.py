@@ -32,6 +32,9 @@ from solver.surface import (
     surface_pressures,
 )
 
+#: Fast enough to run a second time with the JIT off (HDI_DISABLE_JIT=1, .ci/run).
+pytestmark = pytest.mark.jitless
+
 #: Intermolecular equilibrium spacing [m].
 EPS_LJ = 0.3e-9
 #: Representative composite modulus [Pa]: AlTiC slider (400 GPa, 0.22) on a disk (150 GPa, 0.3).

@@ -74,11 +74,17 @@ class AbsFilm:
         self.disk = z3(nx, ny)
         self.disk_xf = z3(nx - 1, ny)
         self.disk_yf = z3(nx, ny - 1)
-        self._R = z3(nx, ny)
-        self._J = [z3(nx, ny) for _ in range(6)]
-        self._xface = np.zeros((3, nx - 1, ny))
-        self._yface = np.zeros((3, nx, ny - 1))
-        self._diag, self._rhs, self._delta, self._work = (z3(nx, ny) for _ in range(4))
+        self.constants = kf.AbsFilmConstants(
+            dx=self.dx, dy=self.dy, dxc=self.dxc, dyc=self.dyc, area=self.area_scaled, lamx=self.lamx,
+            lamy=self.lamy, kn=self.kn, h_ref=self.h_ref, h_switch=self.h_switch, code=self.code,
+        )  # fmt: skip
+        self.scratch = kf.AbsFilmScratch(
+            R=z3(nx, ny), Jcx=z3(nx, ny), Jxm=z3(nx, ny), Jxp=z3(nx, ny), Jcy=z3(nx, ny), Jym=z3(nx, ny),
+            Jyp=z3(nx, ny), xface=np.zeros((3, nx - 1, ny)), yface=np.zeros((3, nx, ny - 1)),
+            diag=z3(nx, ny), rhs=z3(nx, ny), delta=z3(nx, ny), work=z3(nx, ny),
+        )  # fmt: skip
+        # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
+        self._kernel_film = (tuple(self.constants), tuple(self.scratch))
         self._pattern = _jacobian_pattern(nx, ny)
         self.reynolds_solves = 0
         self.newton_iterations = 0
@@ -124,9 +130,8 @@ class AbsFilm:
 
     def residual(self) -> np.ndarray:
         """Steady flux residual at the current P and face spacings (1, nx, ny)."""
-        kf.assemble(self.P, self.Hx, self.Hy, self.dx, self.dy, self.dxc, self.dyc, self.lamx, self.lamy, self.kn,
-                    self.h_ref, self.h_switch, self.code, self._R, *self._J, self._xface, self._yface)  # fmt: skip
-        return self._R
+        kf.assemble(self.P, self.Hx, self.Hy, *self._kernel_film)
+        return self.scratch.R
 
     def solve_steady(self, q: np.ndarray, tol: float = 1e-10, max_iter: int = 60) -> int:
         """Steady film at attitude q (warm start from the current P); returns the Newton iterations.
@@ -140,7 +145,7 @@ class AbsFilm:
         history: list[float] = []
         for it in range(1, max_iter + 1):
             R = self.residual()
-            scale = np.max(np.abs(self._J[0]) + np.abs(self._J[3])) + 1e-300
+            scale = np.max(np.abs(self.scratch.Jcx) + np.abs(self.scratch.Jcy)) + 1e-300
             err = np.max(np.abs(R)) / scale
             history.append(err)
             # Converged at tol, or at the round-off floor: below 1e-7 and no longer falling.
@@ -164,7 +169,8 @@ class AbsFilm:
 
     def _sparse_jacobian(self) -> sp.csc_matrix:
         nx, ny = self.shape
-        Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (a[0, 1:-1, 1:-1] for a in self._J)
+        b = self.scratch
+        Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (a[0, 1:-1, 1:-1] for a in (b.Jcx, b.Jxm, b.Jxp, b.Jcy, b.Jym, b.Jyp))
         rows, cols, order = self._pattern
         m = (nx - 2) * (ny - 2)
         data = np.concatenate([(Jcx + Jcy).ravel(), Jxm.ravel(), Jxp.ravel(), Jym.ravel(), Jyp.ravel()])
@@ -182,10 +188,7 @@ class AbsFilm:
         self.set_disk(0.5 * (disk_old + disk_new))
         self.fill_faces(0.5 * (q_old + q_new))
         self.set_disk(disk_new)
-        kf.film_step(self.P, self.H, self.H_new, self.Hx, self.Hy, self.dx, self.dy, self.dxc, self.dyc,
-                     self.area_scaled, self.lamx, self.lamy, self.kn, self.h_ref, self.h_switch, self.code,
-                     self.sigma / dt, self._R, *self._J, self._xface, self._yface, self._diag, self._rhs,
-                     self._delta, self._work)  # fmt: skip
+        kf.film_step(self.P, self.H, self.H_new, self.Hx, self.Hy, self.sigma / dt, *self._kernel_film)
         self.reynolds_solves += 1
 
     @property

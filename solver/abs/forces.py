@@ -14,6 +14,12 @@ from solver.kernels import surface as ksurf
 
 log = logging.getLogger(__name__)
 
+#: Summits beyond this many RMS heights above the mean carry no load: cells farther than the force reach plus
+#: this many sigma are skipped.
+REACH_SIGMAS = 6.0
+#: Relative tolerance of the elastic contact solve.
+ELASTIC_TOLERANCE = 1e-12
+
 
 @dataclass
 class SurfaceForces:
@@ -59,15 +65,13 @@ class SurfaceModel:
         self.area = grid.area.ravel()
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
-        self._out = np.zeros((4, 0))
-        self._elastic = None
 
     def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
         """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
         if self.law == "none":
             return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
         d_flat, s_flat = d.ravel(), sigma.ravel()
-        near = np.flatnonzero(d_flat < self.reach + 6.0 * s_flat)
+        near = np.flatnonzero(d_flat < self.reach + REACH_SIGMAS * s_flat)
         return self._on(near, d_flat[near], s_flat[near])
 
     def candidates(self, offset: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
@@ -78,7 +82,7 @@ class SurfaceModel:
         """
         base, s_flat = offset.ravel(), sigma.ravel()
         d = base + q @ self.b
-        near = np.flatnonzero(d < self.reach + 6.0 * s_flat + margin)
+        near = np.flatnonzero(d < self.reach + REACH_SIGMAS * s_flat + margin)
         return Candidates(near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]))
 
     def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:
@@ -107,7 +111,7 @@ class SurfaceModel:
         else:
             w = dpc * area
             dfdq = (b * (w + dpa * area)) @ b.T + self.mu * np.outer(self.friction_arm, b @ w)
-        in_reach = int(np.count_nonzero(dn < self.reach + 6.0 * sn))
+        in_reach = int(np.count_nonzero(dn < self.reach + REACH_SIGMAS * sn))
         return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach)
 
     def _elastic_pressure(self, near: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +130,7 @@ class SurfaceModel:
 
         wx, wy = control_volume_widths(self.grid.x), control_volume_widths(self.grid.y)
         C = influence_matrix(self.grid.x[i], self.grid.y[j], 0.5 * wx[i], 0.5 * wy[j], self.e_composite)
-        p, active = solve_contact(gap[touching], C, 1e-12)
+        p, active = solve_contact(gap[touching], C, ELASTIC_TOLERANCE)
         pc[touching] = p
         act = touching[np.asarray(active, dtype=bool)]
         if act.size:

@@ -45,6 +45,11 @@ t_n -> t_n+1:
 The surface stiffness (asperities: 1e7-1e9 N/m) is far above the film's,
 and the implicit treatment keeps the step stable with dt set by the film
 and the disk's features, not by the contact.
+
+Following scipy's solve_ivp contract, :class:`AbsStepper` holds the state
+and takes one step; the driver :func:`simulate_abs` owns the time grid, the
+output samples and stopping, and returns a flat :class:`AbsResult` (``t``,
+states, series, ``status``, ``message`` and work counters).
 """
 
 from __future__ import annotations
@@ -67,6 +72,21 @@ log = logging.getLogger(__name__)
 
 #: A step whose Newton solve fails is halved at most this many times (dt / 256).
 MAX_HALVINGS = 8
+#: Force scale of the Newton tolerance when the preload is zero [N].
+MIN_FORCE_SCALE = 1e-6
+#: Cells within the surface forces' reach plus this [m] (and the step's predicted motion) are a step's
+#: candidates: the only cells its Newton iterations evaluate.
+CANDIDATE_MARGIN = 2.0e-9
+#: Newton has converged when the residual is below this fraction of the forces (their round-off).
+FORCE_ROUND_OFF = 1e-12
+#: Backtracking halvings of a Newton step (the contact and adhesion laws are steep power laws), and the
+#: smallest damping factor that is taken anyway.
+MAX_BACKTRACKS = 12
+MIN_DAMPING = 1e-3
+#: Film passes per step: along the predicted attitude path, then along the corrected one.
+FILM_PASSES = 2
+#: Samples this close [s] before the settling time count as after it (output times are multiples of dt).
+SETTLE_SLACK = 1e-15
 
 
 @dataclass
@@ -94,9 +114,179 @@ SERIES = {
 }
 
 
+class AbsStepper:
+    """The state of one run and its generalized-alpha steps (the scheme of the module docstring).
+
+    State at time ``t``: attitude ``q``, velocities ``v`` and accelerations ``a`` (3,) [m, rad; /s; /s^2],
+    the film (its pressure lives in ``film``), the disk heights under the nodes ``zd`` [m], and the forces
+    at t: ``f_air`` (3,) and the surface forces ``sf``.  Like scipy's ``OdeSolver``, :meth:`step` advances
+    the state and returns None, or returns why it could not, with ``status`` "running" or "failed".  Work
+    counters: ``newton`` iterations, accepted ``substeps`` and step ``halvings``.
+    """
+
+    def __init__(self, scene: AbsScene, film: AbsFilm, track: Track, surface: SurfaceModel, steady: AbsSteady) -> None:
+        num = scene.numerics
+        self.film, self.track, self.surface = film, track, surface
+        self.M = mass_matrix(scene)
+        self.K, self.C = stiffness_damping(scene)
+        self.f_static = static_forces(scene)
+        self.q_ref = steady.q.copy()
+        rho = num.rho_infinity
+        self.alpha_m, self.alpha_f = (2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0)
+        self.gamma = 0.5 - self.alpha_m + self.alpha_f
+        self.beta = 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
+        self.use_air = scene.models.air_bearing == "reynolds"
+        self.newton_max_iter = num.newton_max_iter
+        self.tol = num.newton_tol * max(scene.suspension.preload, MIN_FORCE_SCALE)
+        self.weights = np.array([1.0, 1.0 / scene.slider.length, 1.0 / scene.slider.length])
+        self.offset_base = film.grid.surface  # the face's static surface; the disk height is subtracted per step
+
+        self.t = 0.0
+        self.q = steady.q.copy()
+        self.v = np.array([scene.initial.zdot, scene.initial.pitch_rate, scene.initial.roll_rate])
+        self.zd, sd = track.at(0.0)
+        film.set_disk(self.zd)
+        self.f_air = film.forces() if self.use_air else np.zeros(3)
+        self.sf = surface.forces(film.spacing(self.q), sd)
+        self.a = np.linalg.solve(
+            self.M, self.f_static + self.f_air + self.sf.f - self.C @ self.v - self.K @ (self.q - self.q_ref)
+        )
+        self.status = "running"
+        self.newton = self.substeps = self.halvings = 0
+
+    def step(self, h: float) -> str | None:
+        """Advance the state from t by h (halving it where Newton fails); None, or the message of the failure."""
+        message = self._advance(h, 0)
+        if message:
+            self.status = "failed"
+            return message
+        return None
+
+    def _advance(self, h: float, depth: int) -> str:
+        """Advance by h; on a failed Newton solve, restore the film and take two halves.  "" on success."""
+        film, surface = self.film, self.surface
+        M, C, K = self.M, self.C, self.K
+        alpha_m, alpha_f, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
+        weights, tol = self.weights, self.tol
+        t0, q, v, a = self.t, self.q, self.v, self.a
+        t1 = t0 + h
+        zd1, sd1 = self.track.at(t1)
+        q_pred = q + h * v + 0.5 * h * h * a
+        P_saved = film.P.copy()
+
+        def halve() -> str:
+            film.P[:] = P_saved
+            film.set_disk(self.zd)
+            self.halvings += 1
+            return self._advance(0.5 * h, depth + 1) or self._advance(0.5 * h, depth + 1)
+
+        f_old = self.f_air + self.sf.f
+        margin = CANDIDATE_MARGIN + float(np.abs(h * v + 2.0 * h * h * a) @ np.abs(surface.b).max(axis=1))
+        cells = surface.candidates(self.offset_base - zd1, sd1, q, margin)
+
+        def newmark(a_trial: np.ndarray, f_air: np.ndarray):
+            q1 = q + h * v + h * h * ((0.5 - beta) * a + beta * a_trial)
+            v1 = v + h * ((1.0 - gamma) * a + gamma * a_trial)
+            sf = surface.forces_on(cells, q1)
+            G = (
+                M @ ((1.0 - alpha_m) * a_trial + alpha_m * a)
+                + C @ ((1.0 - alpha_f) * v1 + alpha_f * v)
+                + K @ ((1.0 - alpha_f) * q1 + alpha_f * q - self.q_ref)
+                - self.f_static
+                - (1.0 - alpha_f) * (f_air + sf.f)
+                - alpha_f * f_old
+            )
+            return q1, v1, sf, G
+
+        def round_off(sf: SurfaceForces, f_air: np.ndarray) -> float:
+            return FORCE_ROUND_OFF * (np.max(np.abs(sf.f * weights)) + np.max(np.abs(f_air * weights)))
+
+        # The film moves along the predicted path, then again along the corrected one, so that a hard
+        # contact (accelerations of 1e5 m/s2) never leaves the film on a path the slider did not take.
+        q_path = q_pred
+        a_new = a.copy()
+        for sweep in range(FILM_PASSES):
+            f_air = self.f_air
+            if self.use_air:
+                if sweep:
+                    film.P[:] = P_saved
+                film.step(q, q_path, self.zd, zd1, h)
+                f_air = film.forces()
+                if not (np.all(np.isfinite(f_air)) and np.all(film.P > 0.0)):
+                    if depth >= MAX_HALVINGS:
+                        return f"film failed (pressure not positive and finite) at t = {t1:.4g} s, dt / 2^{depth}"
+                    return halve()
+            else:
+                film.set_disk(zd1)
+            q1, v1, sf, G = newmark(a_new, f_air)
+            norm = np.max(np.abs(G * weights))
+            for it in range(self.newton_max_iter):
+                self.newton += 1
+                if norm < tol or norm <= round_off(sf, f_air):
+                    break  # converged, absolutely or to round-off of the forces
+                Jn = (1.0 - alpha_m) * M + (1.0 - alpha_f) * (gamma * h * C + beta * h * h * (K - sf.dfdq))
+                step_a = np.linalg.solve(Jn, G)
+                lam = 1.0
+                for _ in range(MAX_BACKTRACKS):
+                    trial = newmark(a_new - lam * step_a, f_air)
+                    trial_norm = np.max(np.abs(trial[3] * weights))
+                    if trial_norm < norm or lam < MIN_DAMPING:
+                        break
+                    lam *= 0.5
+                a_new = a_new - lam * step_a
+                q1, v1, sf, G = trial
+                norm = trial_norm
+                log.debug("t = %.4g Newton %d: |G| = %.3e (lambda %.3g)", t1, it, norm, lam)
+            if norm >= tol and norm > round_off(sf, f_air):
+                if depth >= MAX_HALVINGS:
+                    return f"Newton did not converge at t = {t1:.4g} s (|G| = {norm:.2e}) with dt / 2^{depth}"
+                # A snap (adhesion pulling the pad in, a hard landing) outruns the step: restore, take two halves.
+                return halve()
+            if not self.use_air:
+                break
+            q_path = q1
+        self.substeps += 1
+        self.t, self.q, self.v, self.a = t1, q1, v1, a_new
+        self.zd, self.f_air, self.sf = zd1, f_air, sf
+        return ""
+
+
+class _Samples:
+    """The stored time series: the state every ``output_every`` steps, preallocated."""
+
+    def __init__(self, scene: AbsScene, n_out: int) -> None:
+        self.scene = scene
+        self.fh_row = element_row(scene)
+        self.t = np.empty(n_out)
+        self.q = np.empty((n_out, 3))
+        self.v = np.empty((n_out, 3))
+        self.series = {k: np.empty(n_out) for k in SERIES}
+        self.k = 0
+
+    @property
+    def full(self) -> bool:
+        return self.k >= self.t.size
+
+    def record(self, t: float, stepper: AbsStepper) -> None:
+        k, q, sf = self.k, stepper.q, stepper.sf
+        self.t[k] = t
+        self.q[k] = q
+        self.v[k] = stepper.v
+        self.series["flying_height"][k] = element_spacing(self.scene, q, self.fh_row)
+        self.series["clearance"][k] = float(np.min(stepper.film.spacing(q)))
+        self.series["contact_force"][k] = sf.contact
+        self.series["adhesion_force"][k] = sf.adhesion
+        self.series["friction_force"][k] = sf.friction
+        self.series["air_force"][k] = stepper.f_air[0]
+        self.series["contact_cells"][k] = sf.cells
+        self.k += 1
+
+
 def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None) -> AbsResult:
     """Integrate one run from steady flight over the moving track; never raises for a physical failure.
 
+    The driver: steps of ``numerics.dt`` on the grid t_n = n dt (:class:`AbsStepper`), a sample every
+    ``numerics.output_every`` steps, a stop at t_end or at the first step that fails.
     status 0: reached t_end; -1: the film or the Newton solve failed (message says where).
     """
     wall0 = time.perf_counter()
@@ -110,168 +300,37 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         film.solve_steady(steady.q)
     track = Track(scene, grid, profile)
     surface = SurfaceModel(scene, grid)
-    M = mass_matrix(scene)
-    K, C = stiffness_damping(scene)
-    f_static = static_forces(scene)
-    q_ref = steady.q.copy()
+    stepper = AbsStepper(scene, film, track, surface, steady)
     dt = num.dt
-    rho = num.rho_infinity
-    alpha_m, alpha_f = (2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0)
-    gamma = 0.5 - alpha_m + alpha_f
-    beta = 0.25 * (1.0 - alpha_m + alpha_f) ** 2
     n_steps = int(round(num.t_end / dt))
     every = num.output_every
-    use_air = scene.models.air_bearing == "reynolds"
-
-    q = steady.q.copy()
-    v = np.array([scene.initial.zdot, scene.initial.pitch_rate, scene.initial.roll_rate])
-    zd, sd = track.at(0.0)
-    film.set_disk(zd)
-    f_air = film.forces() if use_air else np.zeros(3)
-    sf = surface.forces(film.spacing(q), sd)
-    a = np.linalg.solve(M, f_static + f_air + sf.f - C @ v - K @ (q - q_ref))
-    q_film = q.copy()
-    n_out = n_steps // every + 1
-    t_out = np.empty(n_out)
-    q_out = np.empty((n_out, 3))
-    v_out = np.empty((n_out, 3))
-    series = {k: np.empty(n_out) for k in SERIES}
-    newton_total = 0
+    out = _Samples(scene, n_steps // every + 1)
+    out.record(0.0, stepper)
     status, message = 0, "reached t_end"
-    tol = num.newton_tol * max(scene.suspension.preload, 1e-6)
-    weights = np.array([1.0, 1.0 / scene.slider.length, 1.0 / scene.slider.length])
-
-    fh_row = element_row(scene)
-    offset_base = grid.surface  # the face's static surface; the disk height is subtracted per step
-
-    def track_zd(zd_nodes: np.ndarray) -> np.ndarray:
-        return zd_nodes
-
-    def record(k: int, t: float, sf: SurfaceForces, f_air: np.ndarray, zd: np.ndarray) -> None:
-        t_out[k] = t
-        q_out[k] = q
-        v_out[k] = v
-        series["flying_height"][k] = element_spacing(scene, q, fh_row)
-        series["clearance"][k] = float(np.min(film.spacing(q)))
-        series["contact_force"][k] = sf.contact
-        series["adhesion_force"][k] = sf.adhesion
-        series["friction_force"][k] = sf.friction
-        series["air_force"][k] = f_air[0]
-        series["contact_cells"][k] = sf.cells
-
-    record(0, 0.0, sf, f_air, zd)
-    k_out = 1
-    state = {"q": q, "v": v, "a": a, "q_film": q_film, "zd": zd, "f_air": f_air, "sf": sf}
-    counters = {"newton": 0, "substeps": 0, "halvings": 0}
-
-    def advance(t0: float, h: float, depth: int) -> str:
-        """Advance ``state`` from t0 by h; on a failed Newton solve, restore the film and take two halves."""
-        st = state
-        q, v, a = st["q"], st["v"], st["a"]
-        t1 = t0 + h
-        zd1, sd1 = track.at(t1)
-        q_pred = q + h * v + 0.5 * h * h * a
-        P_saved = film.P.copy()
-
-        def halve() -> str:
-            film.P[:] = P_saved
-            film.set_disk(st["zd"])
-            counters["halvings"] += 1
-            message = advance(t0, 0.5 * h, depth + 1)
-            return message or advance(t0 + 0.5 * h, 0.5 * h, depth + 1)
-
-        f_old = st["f_air"] + st["sf"].f
-        margin = 2.0e-9 + float(np.abs(h * v + 2.0 * h * h * a) @ np.abs(surface.b).max(axis=1))
-        cells = surface.candidates(offset_base - track_zd(zd1), sd1, q, margin)
-
-        def newmark(a_trial: np.ndarray, f_air: np.ndarray):
-            q1 = q + h * v + h * h * ((0.5 - beta) * a + beta * a_trial)
-            v1 = v + h * ((1.0 - gamma) * a + gamma * a_trial)
-            sf = surface.forces_on(cells, q1)
-            G = (
-                M @ ((1.0 - alpha_m) * a_trial + alpha_m * a)
-                + C @ ((1.0 - alpha_f) * v1 + alpha_f * v)
-                + K @ ((1.0 - alpha_f) * q1 + alpha_f * q - q_ref)
-                - f_static
-                - (1.0 - alpha_f) * (f_air + sf.f)
-                - alpha_f * f_old
-            )
-            return q1, v1, sf, G
-
-        # Two passes: the film moves along the predicted path, then again along the corrected one, so that
-        # a hard contact (accelerations of 1e5 m/s2) never leaves the film on a path the slider did not take.
-        q_path = q_pred
-        a_new = a.copy()
-        for sweep in range(2):
-            f_air = st["f_air"]
-            if use_air:
-                if sweep:
-                    film.P[:] = P_saved
-                film.step(q, q_path, st["zd"], zd1, h)
-                f_air = film.forces()
-                if not (np.all(np.isfinite(f_air)) and np.all(film.P > 0.0)):
-                    if depth >= MAX_HALVINGS:
-                        return f"film failed (pressure not positive and finite) at t = {t1:.4g} s, dt / 2^{depth}"
-                    return halve()
-            else:
-                film.set_disk(zd1)
-            q1, v1, sf, G = newmark(a_new, f_air)
-            norm = np.max(np.abs(G * weights))
-            for it in range(num.newton_max_iter):
-                counters["newton"] += 1
-                if norm < tol or norm <= 1e-12 * (np.max(np.abs(sf.f * weights)) + np.max(np.abs(f_air * weights))):
-                    break  # converged, absolutely or to round-off of the forces
-                Jn = (1.0 - alpha_m) * M + (1.0 - alpha_f) * (gamma * h * C + beta * h * h * (K - sf.dfdq))
-                step_a = np.linalg.solve(Jn, G)
-                lam = 1.0
-                for _ in range(12):  # backtracking: the contact and adhesion laws are steep power laws
-                    trial = newmark(a_new - lam * step_a, f_air)
-                    trial_norm = np.max(np.abs(trial[3] * weights))
-                    if trial_norm < norm or lam < 1e-3:
-                        break
-                    lam *= 0.5
-                a_new = a_new - lam * step_a
-                q1, v1, sf, G = trial
-                norm = trial_norm
-                log.debug("t = %.4g Newton %d: |G| = %.3e (lambda %.3g)", t1, it, norm, lam)
-            if norm >= tol and norm > 1e-12 * (np.max(np.abs(sf.f * weights)) + np.max(np.abs(f_air * weights))):
-                if depth >= MAX_HALVINGS:
-                    return f"Newton did not converge at t = {t1:.4g} s (|G| = {norm:.2e}) with dt / 2^{depth}"
-                # A snap (adhesion pulling the pad in, a hard landing) outruns the step: restore, take two halves.
-                return halve()
-            if not use_air:
-                break
-            q_path = q1
-        counters["substeps"] += 1
-        state.update(q=q1, v=v1, a=a_new, q_film=q_path, zd=zd1, f_air=f_air, sf=sf)
-        return ""
-
     n = -1
     for n in range(n_steps):
-        t1 = (n + 1) * dt
-        message_n = advance(n * dt, dt, 0)
-        if message_n:
-            status, message = -1, message_n
+        stepper.t = n * dt  # on the grid: no round-off accumulates over the run
+        failure = stepper.step(dt)
+        if failure:
+            status, message = -1, failure
             break
-        q, v = state["q"], state["v"]
-        if (n + 1) % every == 0 and k_out < n_out:
-            record(k_out, t1, state["sf"], state["f_air"], state["zd"])
-            k_out += 1
-    newton_total = counters["newton"]
+        if (n + 1) % every == 0 and not out.full:
+            out.record((n + 1) * dt, stepper)
     work = {
         "steps": n + 1 if n_steps else 0,
-        "substeps": counters["substeps"],
-        "step_halvings": counters["halvings"],
-        "newton_iterations": newton_total,
+        "substeps": stepper.substeps,
+        "step_halvings": stepper.halvings,
+        "newton_iterations": stepper.newton,
         "reynolds_solves": film.reynolds_solves,
         "nodes": grid.x.size * grid.y.size,
         "wall_time": time.perf_counter() - wall0,
     }
+    k = out.k
     return AbsResult(
-        t=t_out[:k_out],
-        q=q_out[:k_out],
-        v=v_out[:k_out],
-        series={k: s[:k_out] for k, s in series.items()},
+        t=out.t[:k],
+        q=out.q[:k],
+        v=out.v[:k],
+        series={name: s[:k] for name, s in out.series.items()},
         steady=steady,
         status=status,
         message=message,
@@ -294,7 +353,7 @@ def spectrum(t: np.ndarray, signal: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 def summarize(result: AbsResult, scene: AbsScene) -> dict[str, float]:
     """Bouncing 3-sigma, contact measures and spectral peaks after the settling time."""
     num = scene.numerics
-    keep = result.t >= num.settle_time - 1e-15
+    keep = result.t >= num.settle_time - SETTLE_SLACK
     t = result.t[keep]
     fh = result.series["flying_height"][keep]
     fc = result.series["contact_force"][keep]

@@ -31,12 +31,17 @@ WARM_UP_REGIONS = (
 )
 
 
-def warm_up() -> None:
-    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread."""
+def tiny() -> AbsScene:
+    """A stepped femto face on 31 x 25 nodes, two steps of 0.2 us."""
     from .params import Abs, AbsNumerics
 
+    return AbsScene(abs=Abs(regions=WARM_UP_REGIONS), numerics=AbsNumerics(**WARM_UP_NUMERICS))
+
+
+def warm_up() -> None:
+    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread."""
     os.environ["NUMBA_NUM_THREADS"] = "1"
-    simulate_abs(AbsScene(abs=Abs(regions=WARM_UP_REGIONS), numerics=AbsNumerics(**WARM_UP_NUMERICS)))
+    simulate_abs(tiny())
 
 
 KIND = SceneKind(
@@ -49,5 +54,6 @@ KIND = SceneKind(
     simulate=simulate_abs,
     steady_free=STEADY_FREE,
     series=SERIES,
+    tiny=tiny,
     warm_up=warm_up,
 )

@@ -30,7 +30,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from solver.params import Air, ParameterError, Section, quantity
+from solver.params import Air, ParameterError, Section, check_field, quantity
+from solver.slip import SLIP_LAWS
 
 GRAM_FORCE = 9.80665e-3  # N
 
@@ -181,9 +182,7 @@ class Abs(Section):
         object.__setattr__(self, "regions", regions)
         for f in dataclasses.fields(self):
             if f.name != "regions":
-                from solver.params import _check_field
-
-                _check_field(self.section, f, getattr(self, f.name))
+                check_field(self.section, f, getattr(self, f.name))
         names = [r.name for r in regions]
         if self.refine_region and self.refine_region not in names:
             raise ParameterError(
@@ -290,14 +289,13 @@ class AbsInitial(Section):
 
 
 ABS_AIR_BEARINGS = ("reynolds", "none")
-ABS_SLIP_MODELS = ("continuum", "first_order", "second_order", "fukui_kaneko")
 
 
 @dataclass(frozen=True)
 class AbsModels(Section):
     section = "models"
     air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=ABS_AIR_BEARINGS)
-    slip: str = quantity("fukui_kaneko", "", "slip law", choices=ABS_SLIP_MODELS)
+    slip: str = quantity("fukui_kaneko", "", "slip law", choices=tuple(SLIP_LAWS))
     contact: str = quantity("greenwood_williamson", "", "contact law", choices=SURFACE_CONTACT_LAWS)
     slip_switch: float = quantity(
         0.3e-9, "m", "films thinner than this use the bounded second-order slip law (fukui_kaneko)", lo=0.0

@@ -33,6 +33,7 @@ class AbsSteady:
     pressure: np.ndarray
     x: np.ndarray
     y: np.ndarray
+    depth: np.ndarray  # etch depth of the face on the grid [m]
     iterations: int
     reynolds_solves: int
     force_residual: float
@@ -59,6 +60,26 @@ def element_spacing(scene: AbsScene, q: np.ndarray, row: np.ndarray | None = Non
 
 #: Newton iterations of the steady attitude search before it gives up.
 MAX_ATTITUDE_ITERATIONS = 40
+#: The search has stalled when after STALL_AFTER iterations the best residual has not halved
+#: (STALL_RATIO) over the last STALL_WINDOW iterations.
+STALL_AFTER = 8
+STALL_RATIO = 0.5
+STALL_WINDOW = 6
+#: Force scale floor of the balances when the preload is zero [N].
+MIN_FORCE_SCALE = 1e-6
+#: Tolerance of each steady Reynolds solve of the search.
+FILM_TOLERANCE = 1e-9
+#: Central-difference step of the film Jacobian in z [m] (over the slider length for the angles).
+JACOBIAN_STEP = 2e-11
+#: A Newton step lowers no pad spacing by more than this fraction of it (spacings below FLOOR count as FLOOR [m]).
+MAX_SPACING_DROP = 0.5
+SPACING_FLOOR = 0.2e-9
+#: Step halvings of the line search, and its sufficient-decrease factor (Armijo).
+MAX_LINE_SEARCH_HALVINGS = 10
+SUFFICIENT_DECREASE = 1e-4
+#: Starting guess: pitch [rad] and the trailing pad's height [m].
+START_PITCH = 150e-6
+START_ELEMENT_HEIGHT = 10e-9
 
 
 def _attitude_text(q: np.ndarray) -> str:
@@ -83,11 +104,11 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
     film.set_disk(np.zeros(grid.shape))
     f_static = static_forces(scene)
     L = scene.slider.length
-    scale = np.array([1.0, L, L]) * max(scene.suspension.preload, 1e-6)
+    scale = np.array([1.0, L, L]) * max(scene.suspension.preload, MIN_FORCE_SCALE)
     pad = grid.depth <= 0.5 * scene.abs.base_depth if scene.abs.base_depth > 0 else np.ones(grid.shape, bool)
 
     def balance(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, SurfaceForces]:
-        film.solve_steady(q, tol=1e-9)
+        film.solve_steady(q, tol=FILM_TOLERANCE)
         fa = film.forces()
         sf = surface.forces(film.spacing(q), track_sigma)
         return (fa + sf.f + f_static) / scale, fa, sf
@@ -99,36 +120,36 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
     for it in range(1, MAX_ATTITUDE_ITERATIONS + 1):
         if np.max(np.abs(r)) < scene.numerics.steady_tol:
             break
-        if it > 8 and best[-1] > 0.5 * best[-7]:
+        if it > STALL_AFTER and best[-1] > STALL_RATIO * best[-1 - STALL_WINDOW]:
             raise AttitudeError(
                 f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the attitude search stalled "
                 f"at a force residual of {best[-1]:.2e} preloads near {_attitude_text(q)}"
             )
         J = sf.dfdq / scale[:, None]
-        steps = np.array([2e-11, 2e-11 / L, 2e-11 / L])
+        steps = np.array([JACOBIAN_STEP, JACOBIAN_STEP / L, JACOBIAN_STEP / L])
         for k in range(3):
             dq = np.zeros(3)
             dq[k] = steps[k]
             forces = []
             for sign in (1.0, -1.0):
                 film.P[:] = P_keep
-                film.solve_steady(q + sign * dq, tol=1e-9)
+                film.solve_steady(q + sign * dq, tol=FILM_TOLERANCE)
                 forces.append(film.forces())
             J[:, k] += (forces[0] - forces[1]) / scale / (2.0 * steps[k])
         dq = np.linalg.solve(J, -r)
         h = film.spacing(q)[pad]
         change = dq @ surface.b[:, pad.ravel()]
-        hmin_allowed = np.where(change < 0, -0.5 * np.maximum(h, 0.2e-9) / change, np.inf)
+        hmin_allowed = np.where(change < 0, -MAX_SPACING_DROP * np.maximum(h, SPACING_FLOOR) / change, np.inf)
         step = min(1.0, float(hmin_allowed.min()))
         trial = None
-        for _ in range(10):
+        for _ in range(MAX_LINE_SEARCH_HALVINGS):
             film.P[:] = P_keep
             try:
                 trial = balance(q + step * dq)
             except SteadyFilmError:
                 step *= 0.5
                 continue
-            if np.max(np.abs(trial[0])) < np.max(np.abs(r)) * (1.0 - 1e-4 * step):
+            if np.max(np.abs(trial[0])) < np.max(np.abs(r)) * (1.0 - SUFFICIENT_DECREASE * step):
                 break
             step *= 0.5
         if trial is None:
@@ -162,6 +183,7 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
         pressure=film.P[0].copy() * film.p0,
         x=grid.x,
         y=grid.y,
+        depth=grid.depth,
         iterations=it - 1,
         reynolds_solves=film.reynolds_solves,
         force_residual=float(np.max(np.abs(r))),
@@ -194,7 +216,7 @@ def fly_start(scene: AbsScene, film: AbsFilm | None = None) -> AbsSteady:
 
 
 def _initial_attitude(scene: AbsScene, grid: AbsGrid) -> np.ndarray:
-    """Pitch 150 urad, no roll, and z such that the trailing pad flies at 10 nm."""
+    """Pitch START_PITCH, no roll, and z such that the trailing pad flies at START_ELEMENT_HEIGHT."""
     s = scene.slider
-    pitch = 150e-6
-    return np.array([10e-9 + (s.element_x - s.pivot_x) * pitch, pitch, 0.0])
+    pitch = START_PITCH
+    return np.array([START_ELEMENT_HEIGHT + (s.element_x - s.pivot_x) * pitch, pitch, 0.0])

@@ -32,7 +32,7 @@ class Track:
         if profile is None:
             if disk.profile_file:
                 raise ValueError(
-                    f"disk.profile_file = {disk.profile_file!r}: read it with pipeline.profiles.read_profile and "
+                    f"disk.profile_file = {disk.profile_file!r}: read it with pipeline.data.profiles.read_profile and "
                     "pass the profile (the solver does no file I/O)"
                 )
             ell = disk.correlation_length
@@ -56,7 +56,3 @@ class Track:
 
         disk_surface(self.tables, self.s_nodes, self.speed * t, self.zd, self.sd)
         return self.zd.copy(), self.sd.copy()
-
-    def steady_sigma(self, shape: tuple[int, int]) -> np.ndarray:
-        """Unresolved RMS for the steady state: the whole roughness is statistical (no resolved profile)."""
-        return np.full(shape, self.rms)

@@ -24,11 +24,55 @@ that the line solvers of :mod:`solver.kernels.reynolds` apply unchanged.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..jit import njit
 from .reynolds import af_solve, bernoulli, sg_flux
 from .slip import flow_factor
+
+
+class AbsFilmConstants(NamedTuple):
+    """What the film kernels read and never write: scaled grid and coefficients (fixed for a run).
+
+    One argument of :func:`assemble` and :func:`film_step`: the field order below is the only place
+    their order is written.  Passed like :class:`solver.kernels.reynolds.RailFilmConstants` (the
+    plain tuple of the fields, named again inside the kernels).
+    """
+
+    dx: np.ndarray  # (nx-1,) scaled node spacings
+    dy: np.ndarray  # (ny-1,)
+    dxc: np.ndarray  # (nx,) scaled control-volume widths
+    dyc: np.ndarray  # (ny,)
+    area: np.ndarray  # (nx, ny) scaled control-volume areas
+    lamx: float  # bearing numbers (Lx, Ly) of the disk velocity
+    lamy: float
+    kn: float  # Knudsen number lambda / h_ref
+    h_ref: float  # reference spacing [m]
+    h_switch: float  # spacing where a composite slip law switches [m]
+    code: int  # slip law (:data:`solver.kernels.slip.SLIP_NAMES`)
+
+
+class AbsFilmScratch(NamedTuple):
+    """Arrays the film kernels overwrite, passed like :class:`AbsFilmConstants`; (1, nx, ny) unless stated.
+
+    R and the Jacobian hold the last :func:`assemble` (the steady solve reads them).
+    """
+
+    R: np.ndarray  # flux residual
+    Jcx: np.ndarray  # x-line Jacobian: centre, lower, upper
+    Jxm: np.ndarray
+    Jxp: np.ndarray
+    Jcy: np.ndarray  # y-line Jacobian: centre, lower, upper
+    Jym: np.ndarray
+    Jyp: np.ndarray
+    xface: np.ndarray  # (3, nx-1, ny) x-face fluxes F, dF/dP_L, dF/dP_R
+    yface: np.ndarray  # (3, nx, ny-1) y-face fluxes
+    diag: np.ndarray  # ct A H_new
+    rhs: np.ndarray  # right-hand side of the step
+    delta: np.ndarray  # the step's update of P
+    work: np.ndarray  # line-solver scratch
 
 
 @njit
@@ -57,63 +101,44 @@ def face_flux(
 
 
 @njit
-def assemble(
-    P: np.ndarray,
-    Hx: np.ndarray,
-    Hy: np.ndarray,
-    dx: np.ndarray,
-    dy: np.ndarray,
-    dxc: np.ndarray,
-    dyc: np.ndarray,
-    lamx: float,
-    lamy: float,
-    kn: float,
-    h_ref: float,
-    h_switch: float,
-    code: int,
-    R: np.ndarray,
-    Jcx: np.ndarray,
-    Jxm: np.ndarray,
-    Jxp: np.ndarray,
-    Jcy: np.ndarray,
-    Jym: np.ndarray,
-    Jyp: np.ndarray,
-    xface: np.ndarray,
-    yface: np.ndarray,
-) -> None:
+def assemble(P: np.ndarray, Hx: np.ndarray, Hy: np.ndarray, constants: tuple, scratch: tuple) -> None:
     """Flux residual R(P; H) and its Jacobian in x- and y-line parts, at interior nodes.
 
-    P : (1, nx, ny); Hx : (1, nx-1, ny) x-face spacings; Hy : (1, nx, ny-1).
-    dx : (nx-1,) scaled node spacings, dxc : (nx,) control-volume widths
-    (same for y).  xface : (3, nx-1, ny), yface : (3, nx, ny-1) scratch for
-    the fluxes F, dF/dP_L, dF/dP_R.  Dirichlet rows (the edges, P = 1) are
-    not written.
+    P : (1, nx, ny); Hx : (1, nx-1, ny) x-face spacings; Hy : (1, nx, ny-1);
+    constants : :class:`AbsFilmConstants`; scratch : :class:`AbsFilmScratch`,
+    whose R and Jacobian parts receive the result (and xface, yface the
+    fluxes F, dF/dP_L, dF/dP_R).  Dirichlet rows (the edges, P = 1) are not
+    written.
 
         R_ij = (F_i+1/2,j - F_i-1/2,j) dyc_j + (G_i,j+1/2 - G_i,j-1/2) dxc_i
     """
+    film = AbsFilmConstants(*constants)
+    out = AbsFilmScratch(*scratch)
+    xface, yface = out.xface, out.yface
+    kn, h_ref, h_switch, code = film.kn, film.h_ref, film.h_switch, film.code
     nx, ny = P.shape[1], P.shape[2]
     for i in range(nx - 1):
-        inv = 1.0 / dx[i]
+        inv = 1.0 / film.dx[i]
         for j in range(ny):
             xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux(
-                P[0, i, j], P[0, i + 1, j], Hx[0, i, j], inv, lamx, kn, h_ref, h_switch, code
+                P[0, i, j], P[0, i + 1, j], Hx[0, i, j], inv, film.lamx, kn, h_ref, h_switch, code
             )
     for i in range(nx):
         for j in range(ny - 1):
             yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux(
-                P[0, i, j], P[0, i, j + 1], Hy[0, i, j], 1.0 / dy[j], lamy, kn, h_ref, h_switch, code
+                P[0, i, j], P[0, i, j + 1], Hy[0, i, j], 1.0 / film.dy[j], film.lamy, kn, h_ref, h_switch, code
             )
     for i in range(1, nx - 1):
-        w = dxc[i]
+        w = film.dxc[i]
         for j in range(1, ny - 1):
-            v = dyc[j]
-            R[0, i, j] = (xface[0, i, j] - xface[0, i - 1, j]) * v + (yface[0, i, j] - yface[0, i, j - 1]) * w
-            Jcx[0, i, j] = (xface[1, i, j] - xface[2, i - 1, j]) * v
-            Jxm[0, i, j] = -xface[1, i - 1, j] * v
-            Jxp[0, i, j] = xface[2, i, j] * v
-            Jcy[0, i, j] = (yface[1, i, j] - yface[2, i, j - 1]) * w
-            Jym[0, i, j] = -yface[1, i, j - 1] * w
-            Jyp[0, i, j] = yface[2, i, j] * w
+            v = film.dyc[j]
+            out.R[0, i, j] = (xface[0, i, j] - xface[0, i - 1, j]) * v + (yface[0, i, j] - yface[0, i, j - 1]) * w
+            out.Jcx[0, i, j] = (xface[1, i, j] - xface[2, i - 1, j]) * v
+            out.Jxm[0, i, j] = -xface[1, i - 1, j] * v
+            out.Jxp[0, i, j] = xface[2, i, j] * v
+            out.Jcy[0, i, j] = (yface[1, i, j] - yface[2, i, j - 1]) * w
+            out.Jym[0, i, j] = -yface[1, i, j - 1] * w
+            out.Jyp[0, i, j] = yface[2, i, j] * w
 
 
 @njit
@@ -149,31 +174,9 @@ def film_step(
     H_new: np.ndarray,
     Hx: np.ndarray,
     Hy: np.ndarray,
-    dx: np.ndarray,
-    dy: np.ndarray,
-    dxc: np.ndarray,
-    dyc: np.ndarray,
-    area: np.ndarray,
-    lamx: float,
-    lamy: float,
-    kn: float,
-    h_ref: float,
-    h_switch: float,
-    code: int,
     ct: float,
-    R: np.ndarray,
-    Jcx: np.ndarray,
-    Jxm: np.ndarray,
-    Jxp: np.ndarray,
-    Jcy: np.ndarray,
-    Jym: np.ndarray,
-    Jyp: np.ndarray,
-    xface: np.ndarray,
-    yface: np.ndarray,
-    diag: np.ndarray,
-    rhs: np.ndarray,
-    delta: np.ndarray,
-    work: np.ndarray,
+    constants: tuple,
+    scratch: tuple,
 ) -> None:
     """One linearly implicit midpoint step in place on P (the film at the old time on entry).
 
@@ -184,19 +187,21 @@ def film_step(
         (ct A H_new + J(P_n)/2) delta = -[ct A P_n (H_new - H_old) + R(P_n)]
 
     and sets P = P_n + delta: second order in time, one linear solve.
+    constants : :class:`AbsFilmConstants`; scratch : :class:`AbsFilmScratch`.
     """
-    assemble(P, Hx, Hy, dx, dy, dxc, dyc, lamx, lamy, kn, h_ref, h_switch, code, R, Jcx, Jxm, Jxp, Jcy, Jym, Jyp,
-             xface, yface)  # fmt: skip
+    assemble(P, Hx, Hy, constants, scratch)
+    film = AbsFilmConstants(*constants)
+    buf = AbsFilmScratch(*scratch)
     nx, ny = P.shape[1], P.shape[2]
     for i in range(1, nx - 1):
         for j in range(1, ny - 1):
-            ca = ct * area[i, j]
-            diag[0, i, j] = ca * H_new[0, i, j]
-            rhs[0, i, j] = -(ca * P[0, i, j] * (H_new[0, i, j] - H_old[0, i, j]) + R[0, i, j])
-    af_solve(diag, Jcx, Jxm, Jxp, Jcy, Jym, Jyp, rhs, 0.5, delta, work)
+            ca = ct * film.area[i, j]
+            buf.diag[0, i, j] = ca * H_new[0, i, j]
+            buf.rhs[0, i, j] = -(ca * P[0, i, j] * (H_new[0, i, j] - H_old[0, i, j]) + buf.R[0, i, j])
+    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, 0.5, buf.delta, buf.work)
     for i in range(1, nx - 1):
         for j in range(1, ny - 1):
-            P[0, i, j] += delta[0, i, j]
+            P[0, i, j] += buf.delta[0, i, j]
 
 
 @njit

@@ -23,9 +23,11 @@ Every model has the same interface, used by :func:`solver.rails.integrate.simula
 * ``save()`` / ``restore()``: the film state, for a rejected adaptive step;
 * ``work``: counters (Reynolds solves, Newton iterations, ...).
 
-Tables and coefficients are cached per process and on disk (``HDI_CACHE_DIR``,
-default ``~/.cache/hdi``) under a key of every input they depend on and the
-source of the film solver.
+Tables and coefficients are built once and kept in a store (:mod:`solver.store`)
+under a key of every input they depend on and the source of the film solver
+and kernels: by default in this process's memory; the pipeline passes a store
+on disk (``pipeline.run.cache.DiskStore``) through ``make_air_bearing(scene, store=...)``.
+The solver itself reads and writes no files.
 """
 
 from __future__ import annotations
@@ -33,26 +35,37 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+from solver.jit import kernels_fingerprint, source_fingerprint
 from solver.kernels import forcemodels as kf
 from solver.rails.dynamics import mass_matrix
 from solver.rails.film import ReynoldsFilm, SteadyFilmError
 from solver.rails.geometry import corner_positions
 from solver.rails.params import Scene
+from solver.store import ArrayStore, MemoryStore
 
 log = logging.getLogger(__name__)
 
-_FILM_SOURCES = ("rails/film.py", "rails/bearings.py", "grid.py", "rails/geometry.py", "kernels/reynolds.py")
-_memory: dict[str, dict[str, np.ndarray]] = {}
-
-
-def _cache_dir() -> Path:
-    return Path(os.environ.get("HDI_CACHE_DIR", Path.home() / ".cache" / "hdi"))
+#: The Python sources (relative to solver/) a table depends on; every kernel module counts as well.
+FILM_SOURCES = ("rails/film.py", "rails/bearings.py", "grid.py", "rails/geometry.py")
+#: Where tables go when a caller passes no store: this process's memory.
+DEFAULT_STORE = MemoryStore()
+#: Table z axis: this fraction of the nodes below steady flight (uniform), the rest above (geometric).
+Z_NODES_BELOW = 0.25
+#: Bisection for the growth ratio of the z axis above steady flight: its upper bound and the halvings.
+MAX_Z_GROWTH = 10.0
+Z_GROWTH_BISECTIONS = 200
+#: Table nodes whose minimum spacing is below this [m], or this fraction of the asperity height, are
+#: extrapolated instead of solved (a run's corners stay above the asperities).
+TABLE_FLOOR = 2e-9
+TABLE_FLOOR_FRACTION = 0.1
+#: Linearized film: amplitude of the forced motion, a fraction of the minimum spacing (over L for the angles).
+DRIVE_AMPLITUDE = 0.01
 
 
 def _film_key(scene: Scene, kind: str, q_s: np.ndarray) -> str:
@@ -64,34 +77,17 @@ def _film_key(scene: Scene, kind: str, q_s: np.ndarray) -> str:
     data["kind"] = kind
     data["q_s"] = [float(x) for x in q_s]
     here = Path(__file__).parents[1]
-    code = hashlib.sha256(b"".join((here / f).read_bytes() for f in _FILM_SOURCES)).hexdigest()
-    data["code"] = code
+    data["code"] = source_fingerprint(here / f for f in FILM_SOURCES)
+    data["kernels"] = kernels_fingerprint()
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def _cached(key: str, build) -> dict[str, np.ndarray]:
-    if key in _memory:
-        return _memory[key]
-    path = _cache_dir() / f"{key}.npz"
-    data = None
-    if path.exists():
-        try:
-            with np.load(path) as f:
-                data = {k: f[k] for k in f.files}
-        except (OSError, ValueError):
-            data = None
+def _cached(store: ArrayStore, key: str, build: Callable[[], dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The arrays stored under ``key``, built (and stored) when the store does not hold them."""
+    data = store.get(key)
     if data is None:
         data = build()
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
-            np.savez(tmp, **data)
-            os.replace(tmp, path)
-        except OSError as err:  # a read-only home is not an error, only slower
-            log.info("could not cache %s: %s", path, err)
-    if len(_memory) > 8:
-        _memory.clear()
-    _memory[key] = data
+        store.put(key, data)
     return data
 
 
@@ -101,13 +97,13 @@ def two_sided_axis(centre: float, below: float, above: float, n: int) -> np.ndar
     Below: uniform; above: geometric growth from the same first step, so a
     long range above stays resolved near the centre.
     """
-    n_below = max(2, round(0.25 * (n - 1)))
+    n_below = max(2, round(Z_NODES_BELOW * (n - 1)))
     n_above = n - 1 - n_below
     h = below / n_below
     lo = centre - below + h * np.arange(n_below)
     # h (r^n_above - 1) / (r - 1) = above: bisection on r >= 1
-    r_lo, r_hi = 1.0, 10.0
-    for _ in range(200):
+    r_lo, r_hi = 1.0, MAX_Z_GROWTH
+    for _ in range(Z_GROWTH_BISECTIONS):
         r = 0.5 * (r_lo + r_hi)
         total = h * n_above if r == 1.0 else h * (r**n_above - 1.0) / (r - 1.0)
         r_lo, r_hi = (r, r_hi) if total < above else (r_lo, r)
@@ -127,8 +123,9 @@ class ReducedBearing:
 
     name = ""
 
-    def __init__(self, scene: Scene) -> None:
+    def __init__(self, scene: Scene, store: ArrayStore | None = None) -> None:
         self.scene = scene
+        self.store = DEFAULT_STORE if store is None else store
         self.film = ReynoldsFilm(scene)
         self.work = self.film.work
         self.build_seconds = 0.0
@@ -149,8 +146,8 @@ class QuasiStaticTable(ReducedBearing):
 
     name = "quasi_static"
 
-    def __init__(self, scene: Scene) -> None:
-        super().__init__(scene)
+    def __init__(self, scene: Scene, store: ArrayStore | None = None) -> None:
+        super().__init__(scene, store)
         self.outside_steps = 0
 
     def axes(self, q_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -167,8 +164,8 @@ class QuasiStaticTable(ReducedBearing):
     def build(self, q_s: np.ndarray) -> dict[str, np.ndarray]:
         """Steady solves at every node (roll >= 0; the rails are mirror images, so roll < 0 is mirrored).
 
-        Nodes whose minimum spacing is below ``floor`` (2 nm or a tenth of the
-        asperity height) cannot touch a run, whose corners stay above the
+        Nodes whose minimum spacing is below ``floor`` (:data:`TABLE_FLOOR` or
+        :data:`TABLE_FLOOR_FRACTION` of the asperity height) cannot touch a run, whose corners stay above the
         asperities; they are filled by linear extrapolation along z.
         """
         t0 = time.perf_counter()
@@ -176,7 +173,7 @@ class QuasiStaticTable(ReducedBearing):
         nz, npch, nrl = az.size, ap.size, ar.size
         mid = nrl // 2
         table = np.full((nz, npch, nrl, 3), np.nan)
-        floor = max(2e-9, 0.1 * self.scene.disk.asperity_height)
+        floor = max(TABLE_FLOOR, TABLE_FLOOR_FRACTION * self.scene.disk.asperity_height)
         film = self.film
         P_top = None
         for j, pitch in enumerate(ap):
@@ -219,7 +216,7 @@ class QuasiStaticTable(ReducedBearing):
 
     def start(self, steady) -> None:
         q_s = steady.q
-        data = _cached(_film_key(self.scene, self.name, q_s), lambda: self.build(q_s))
+        data = _cached(self.store, _film_key(self.scene, self.name, q_s), lambda: self.build(q_s))
         self.table, self.az, self.ap, self.ar = data["table"], data["az"], data["ap"], data["ar"]
         self.build_seconds = float(data["build_seconds"])
 
@@ -243,7 +240,7 @@ class LinearizedBearing(ReducedBearing):
 
         The static K gives the slider's natural frequencies with its mass
         matrix; the film is then driven harmonically in each coordinate at
-        the lowest one (amplitude 1 % of the minimum spacing) and the force
+        the lowest one (amplitude :data:`DRIVE_AMPLITUDE` of the minimum spacing) and the force
         over the last ``periods - 1`` periods is fitted to -K dq - C dq'.
         """
         t0 = time.perf_counter()
@@ -253,7 +250,7 @@ class LinearizedBearing(ReducedBearing):
         f_s = film.generalized_forces()
         h_min = film.spacing(q_s).min()
         L = film.length
-        amp = np.array([0.01 * h_min, 0.01 * h_min / L, 0.01 * h_min / L])
+        amp = np.array([DRIVE_AMPLITUDE * h_min, DRIVE_AMPLITUDE * h_min / L, DRIVE_AMPLITUDE * h_min / L])
         K_static = np.empty((3, 3))
         for j in range(3):
             dq = np.zeros(3)
@@ -301,7 +298,7 @@ class LinearizedBearing(ReducedBearing):
 
     def start(self, steady) -> None:
         q_s = steady.q
-        data = _cached(_film_key(self.scene, self.name, q_s), lambda: self.coefficients(q_s))
+        data = _cached(self.store, _film_key(self.scene, self.name, q_s), lambda: self.coefficients(q_s))
         self.K, self.C, self.f_s, self.q_s = data["K"], data["C"], data["f_s"], data["q_s"]
         self.K_static = data["K_static"]
         self.omega = float(data["omega"])
@@ -322,6 +319,11 @@ AIR_BEARINGS = {
 }
 
 
-def make_air_bearing(scene: Scene):
-    """The air-bearing model named by ``scene.models.air_bearing``."""
-    return AIR_BEARINGS[scene.models.air_bearing](scene)
+def make_air_bearing(scene: Scene, store: ArrayStore | None = None):
+    """The air-bearing model named by ``scene.models.air_bearing``.
+
+    ``store`` keeps the reduced models' tables and coefficients (:mod:`solver.store`; None: this process's
+    memory, :data:`DEFAULT_STORE`); the on-line film has none.
+    """
+    model = AIR_BEARINGS[scene.models.air_bearing]
+    return model(scene, store) if issubclass(model, ReducedBearing) else model(scene)

@@ -41,6 +41,29 @@ from solver.rails.dynamics import mass_matrix
 from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
 from solver.rails.params import Scene
 
+#: Relative approach velocities below this fraction of the corners' speed scale are round-off, not approaches
+#: (a plastic impact leaves 0 +- round-off; counting that as an approach struck the corner again).
+APPROACH_ROUND_OFF = 1e-10
+#: At most this many passes of simultaneous impacts, while an impulse makes another touching corner approach.
+MAX_IMPACT_PASSES = 8
+#: Passes to settle which corners of one impact are held (a hold changes the others' rebound once).
+HOLD_ATTEMPTS = 2
+#: Relative singular-value cut-off of the least-norm impulses (dependent corners of a rigid plane).
+LSTSQ_RCOND = 1e-12
+#: Least-norm impulses more negative than this fraction of the largest are pulls: solved again by NNLS.
+PULL_TOLERANCE = 1e-12
+#: Impulses below this fraction of the largest of their impact are round-off and not recorded as impacts.
+IMPULSE_FLOOR = 1e-12
+#: Guard against division by zero in relative scales [the scale's units].
+TINY = 1e-300
+#: Held corners whose rates stay more negative than this fraction of the rate scale cannot be held: an error.
+HOLD_VIOLATION = 1e-6
+#: A held corner separating faster than this fraction of the rate scale is released.
+RELEASE_RATE = 1e-9
+#: Velocity projection: a held corner is released only when it separates faster than this fraction of
+#: ``contact.rest_velocity`` (round-off of a corner at rest does not release it).
+RELEASE_VELOCITY = 1e-6
+
 
 @dataclass(frozen=True)
 class Impact:
@@ -162,10 +185,10 @@ class SustainedContact:
         b = rates[idx]
         x, _ = nnls(A, -b)
         after = A @ x + b
-        scale = float(np.abs(rates).max()) + 1e-300
-        if after.min() < -1e-6 * scale:
+        scale = float(np.abs(rates).max()) + TINY
+        if after.min() < -HOLD_VIOLATION * scale:
             raise ContactError(f"held corners {idx.tolist()} cannot be kept on the asperities (rates {after.tolist()})")
-        for k in np.flatnonzero(after > 1e-9 * scale + release_floor):
+        for k in np.flatnonzero(after > RELEASE_RATE * scale + release_floor):
             self._release(int(idx[k]), t)
         return idx, x
 
@@ -173,7 +196,7 @@ class SustainedContact:
         """Least-norm generalized correction that zeroes ``residual`` on the held corners."""
         idx = np.flatnonzero(self.held)
         A = self.normals[idx] @ self.response[idx].T
-        x = np.linalg.lstsq(A, -residual[idx], rcond=1e-12)[0]
+        x = np.linalg.lstsq(A, -residual[idx], rcond=LSTSQ_RCOND)[0]
         return self.response[idx].T @ x
 
     def should_hold(self, corner: int, v_after: np.ndarray, acc: np.ndarray) -> bool:
@@ -181,15 +204,6 @@ class SustainedContact:
             return False
         n = self.normals[corner]
         return float(n @ v_after) < self.v_rest and float(n @ acc) < 0.0
-
-    def hold(self, corner: int, v: np.ndarray, t: float) -> tuple[np.ndarray, float]:
-        """Plastic impact at ``corner`` (its normal velocity to zero); it joins the held set.  (v_after, impulse)."""
-        n, r = self.normals[corner], self.response[corner]
-        impulse = -float(n @ v) / float(n @ r)
-        v = v + r * impulse
-        self.held[corner] = True
-        self.since[corner] = t
-        return self.project_velocity(v, t), impulse
 
     def _release(self, corner: int, t: float) -> None:
         self.held[corner] = False
@@ -200,7 +214,7 @@ class SustainedContact:
         """Stop the held corners approaching (releasing those that separate)."""
         if not self.any_held:
             return v
-        idx, x = self._multipliers(self.normals @ v, t, 1e-6 * self.v_rest)
+        idx, x = self._multipliers(self.normals @ v, t, RELEASE_VELOCITY * self.v_rest)
         return v + self.response[idx].T @ x
 
     def apply_forces(self, acc: np.ndarray, t: float = 0.0) -> None:
@@ -232,3 +246,108 @@ class SustainedContact:
     def finish(self, t: float) -> None:
         for c in np.flatnonzero(self.held):
             self._release(int(c), t)
+
+
+def resolve_impacts(
+    scene: Scene,
+    q: np.ndarray,
+    v: np.ndarray,
+    t: float,
+    contact: SustainedContact,
+    acc: np.ndarray,
+    impacts: list[Impact],
+    touch_tol: float,
+) -> np.ndarray:
+    """Impacts at every free corner touching the asperities and approaching them, resolved together.
+
+    The run's contact law at an instant t (used by :func:`solver.rails.integrate.simulate`).
+
+    Corners that touch at once (the rear pair at zero roll) share one impact:
+    the impulses p >= 0 solve A p = (1 + alpha) w over the approaching set,
+    w_c = -n_c . v + eps_c V the relative approach velocities and
+    A_cd = n_c . M^-1 g_d (least-norm when the corners are dependent, as the
+    four corners of a level slider; corners whose impulse would pull are
+    dropped by NNLS).  Symmetric contacts thus get symmetric impulses, and a
+    lone corner gets the single-corner law :func:`restitution_impact`
+    (A = G, p = (1 + alpha) w / G; tests/test_contact.py checks it against
+    :func:`impact_map`).  A corner whose rebound would be slower than
+    ``contact.rest_velocity`` while pressed on is held instead
+    (:class:`SustainedContact`): its target is zero normal velocity.
+    Approach velocities below :data:`APPROACH_ROUND_OFF` of the corners'
+    speed scale are round-off, not approaches.  Passes repeat (at most
+    :data:`MAX_IMPACT_PASSES`) while an impulse makes another touching corner
+    approach.
+
+    Parameters
+    ----------
+    scene : Scene
+    q : ndarray (3,)
+        Attitude (z [m], pitch, roll [rad]) at the instant; unchanged.
+    v : ndarray (3,)
+        Generalized velocities before the impacts [m/s, rad/s, rad/s].
+    t : float
+        The instant [s], recorded in the impacts and the holds.
+    contact : SustainedContact
+        The held set (updated in place: new holds, releases) and the corners' normals and responses.
+    acc : ndarray (3,)
+        Generalized accelerations without contact forces (whether a corner is pressed on).
+    impacts : list of Impact
+        Every impulse above :data:`IMPULSE_FLOOR` of its impact's largest is appended, one per corner.
+    touch_tol : float
+        A corner touches when its spacing is within this of the asperity height [m].
+
+    Returns
+    -------
+    ndarray (3,)
+        Generalized velocities after the impacts (projected onto the held corners' constraints).
+    """
+    mu, alpha, V = scene.contact.mu, scene.contact.alpha, scene.disk.speed
+    normals = contact.normals
+    touching = np.flatnonzero((np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol) & contact.free)
+    if touching.size == 0:
+        return v
+    slopes = np.array([surface_slope(scene, int(c), float(q[1])) for c in range(len(normals))])
+    response = contact.response
+    for _ in range(MAX_IMPACT_PASSES):
+        gap_rates = normals @ v
+        w = -gap_rates + slopes * V
+        scale = float(np.abs(gap_rates).max() + np.abs(slopes).max() * V) + TINY
+        active = [int(c) for c in touching if w[c] > APPROACH_ROUND_OFF * scale and not contact.held[c]]
+        pressed = [int(c) for c in touching if not contact.held[c] and w[c] <= APPROACH_ROUND_OFF * scale]
+        grazing = [c for c in pressed if contact.should_hold(c, v, acc) and gap_rates[c] <= 0.0]
+        if not active and not grazing:
+            break
+        hold = set(grazing)
+        for _attempt in range(HOLD_ATTEMPTS):
+            idx = np.array(active + sorted(hold - set(active)), dtype=int)
+            target = np.where(np.isin(idx, list(hold)), -gap_rates[idx], (1.0 + alpha) * w[idx])
+            A = normals[idx] @ response[idx].T
+            for G in np.diag(A):
+                if G <= 0.0:
+                    raise ContactError(
+                        f"friction mu = {mu} makes the impact indeterminate (n . M^-1 g = {G:.3g} <= 0, "
+                        "Painleve's paradox)"
+                    )
+            p = np.linalg.lstsq(A, target, rcond=LSTSQ_RCOND)[0]
+            if p.min() < -PULL_TOLERANCE * max(float(np.abs(p).max()), TINY):
+                p = nnls(A, target)[0]
+            v_new = v + response[idx].T @ p
+            newly = {int(c) for c in idx if c not in hold and contact.should_hold(int(c), v_new, acc)}
+            if not newly:
+                break
+            hold |= newly
+        p_floor = IMPULSE_FLOOR * max(float(p.max()), TINY)
+        for c, pc in zip(idx, p, strict=True):
+            c = int(c)
+            if c in hold:
+                contact.held[c] = True
+                contact.since[c] = t
+            if pc > p_floor:
+                u_before = -float(gap_rates[c])
+                u_after = -float(normals[c] @ v_new)
+                wedge = slopes[c] * V
+                impacts.append(Impact(t, c, float(pc), u_before + wedge, u_after + wedge, u_before, u_after))
+        v = v_new
+        if contact.any_held:
+            v = contact.project_velocity(v, t)
+    return v

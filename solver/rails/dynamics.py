@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver.rails.params import Scene, Slider, Suspension
+from solver.rails.params import Slider, Suspension
 
 
 def mass_matrix(slider: Slider) -> np.ndarray:
@@ -42,7 +42,3 @@ def kinetic_energy(slider: Slider, v: np.ndarray) -> float:
 def momentum(slider: Slider, v: np.ndarray) -> np.ndarray:
     """Generalized momenta M v: vertical momentum [kg m/s], angular momenta about the gimbal [kg m2/s]."""
     return mass_matrix(slider) @ v
-
-
-def inverse_mass_matrix(scene: Scene) -> np.ndarray:
-    return np.linalg.inv(mass_matrix(scene.slider))

@@ -38,15 +38,9 @@ from solver.kernels import motion as km
 from solver.kernels import reynolds as kr
 from solver.rails.geometry import rail_centres
 from solver.rails.params import Scene
+from solver.slip import SLIP_LAWS
 
 log = logging.getLogger(__name__)
-
-#: Slip laws: coefficients (c1, c2) of D = H^3 P + c1 Kn H^2 + c2 Kn^2 H / P.
-SLIP_LAWS: dict[str, tuple[float, float]] = {
-    "continuum": (0.0, 0.0),
-    "first_order": (6.0, 0.0),
-    "second_order": (6.0, 6.0),
-}
 
 
 @dataclass
@@ -90,7 +84,7 @@ class ReynoldsFilm:
         self.lam = 6.0 * air.viscosity * disk.speed * L / (p0 * href**2)
         self.sigma = 12.0 * air.viscosity * L**2 / (p0 * href**2)
         self.kn = air.mean_free_path / href
-        self.c1, self.c2 = SLIP_LAWS[self.scene.models.slip]
+        self.c1, self.c2 = SLIP_LAWS[self.scene.models.slip].coefficients
         x, y = self.grid.x, self.grid.y
         nx, ny = x.size, y.size
         centres = rail_centres(s)

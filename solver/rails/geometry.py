@@ -33,21 +33,6 @@ def corner_is_front(slider: Slider) -> np.ndarray:
     return np.array([True, False, True, False])
 
 
-def spacing(
-    x1: np.ndarray | float,
-    x2: np.ndarray | float,
-    z: float,
-    pitch: float,
-    roll: float,
-    flat_front: float,
-    taper_angle: float,
-) -> np.ndarray:
-    """Spacing h [m] at (x1, x2) [m] for the attitude (z [m], pitch, roll [rad])."""
-    x1 = np.asarray(x1, dtype=float)
-    taper = np.minimum(x1 + flat_front, 0.0) * taper_angle
-    return z - x1 * pitch - np.asarray(x2) * roll - taper
-
-
 def corner_spacings(q: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """Spacing at the flat corners for q = (z, pitch, roll): (4,) [m]."""
     return q[0] - corners[:, 0] * q[1] - corners[:, 1] * q[2]

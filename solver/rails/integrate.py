@@ -33,18 +33,32 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import nnls
 
 from solver.kernels import motion as km
 from solver.rails.bearings import make_air_bearing
-from solver.rails.contact import ContactError, Impact, SustainedContact, corner_normal, surface_slope
+from solver.rails.contact import ContactError, Impact, SustainedContact, corner_normal, resolve_impacts
 from solver.rails.dynamics import mass_matrix
 from solver.rails.film import ReynoldsFilm
 from solver.rails.geometry import corner_positions
 from solver.rails.params import Scene
 from solver.rails.steady import SteadyFlight, fly
+from solver.store import ArrayStore
 
 log = logging.getLogger(__name__)
+
+#: A corner touches the asperities when its spacing is within this fraction of h0 of them (the event root's
+#: spacing error, checked after every located event).
+TOUCH_TOLERANCE = 1e-9
+#: ... and h0 is taken as at least this [m] in that tolerance (a zero asperity height).
+TOUCH_FLOOR = 1e-9
+#: Relative slack in comparisons of times and step sizes (round-off of sums of steps).
+TIME_ROUND_OFF = 1e-12
+#: Contact events in a row that change nothing before the run is stopped (a grazing corner with the rule off).
+MAX_STALLS = 100
+#: Adaptive steps: safety factor on the optimal step, and the bounds of the step ratio.
+STEP_SAFETY = 0.9
+MAX_STEP_GROWTH = 2.0
+MIN_STEP_SHRINK = 0.2
 
 
 @dataclass
@@ -91,10 +105,14 @@ SERIES = {
 }
 
 
-def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
-    """Integrate one run of ``scene`` from steady flight plus the initial velocities."""
+def simulate(scene: Scene, steady: SteadyFlight | None = None, store: ArrayStore | None = None) -> Result:
+    """Integrate one run of ``scene`` from steady flight plus the initial velocities.
+
+    ``store`` keeps the tables of the reduced air-bearing models (:func:`solver.rails.bearings.make_air_bearing`;
+    None: this process's memory).
+    """
     wall0 = time.perf_counter()
-    bearing = make_air_bearing(scene)
+    bearing = make_air_bearing(scene, store=store)
     if steady is None:
         steady = fly(scene, film=bearing.reynolds)
     bearing.start(steady)
@@ -116,7 +134,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
     corners = corner_positions(scene.slider)
     normals = np.array([corner_normal(x1, x2) for x1, x2 in corners])
     h0 = scene.disk.asperity_height
-    touch_tol = 1e-9 * max(h0, 1e-9)
+    touch_tol = TOUCH_TOLERANCE * max(h0, TOUCH_FLOOR)
     f_air = np.empty(3)
     bearing.forces(q, v, f_air)
     acc = np.empty(3)
@@ -140,7 +158,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
         """Resolve the contacts at t (impacts, holds); True when the impact limit is reached."""
         nonlocal v, stalls
         n_before, held_before = len(impacts), contact.held.copy()
-        v = _resolve_impacts(scene, q, v, t, normals, touch_tol, minv, impacts, contact, acc)
+        v = resolve_impacts(scene, q, v, t, contact, acc, impacts, touch_tol)
         stalls = _stalled(stalls, len(impacts) == n_before and (contact.held == held_before).all(), t)
         if contact.any_held:
             km.accelerations(f_air, q, suspension, minv, acc)
@@ -159,7 +177,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
                     message = f"stopped after {len(impacts)} impacts (contact.max_impacts) at t = {t:.6g} s"
                     break
                 continue
-            event = hit >= 0 and s_event < s_max * (1.0 - 1e-12)
+            event = hit >= 0 and s_event < s_max * (1.0 - TIME_ROUND_OFF)
             s = s_event if event else s_max
             q_prev, v_prev, acc_prev, f_prev = q.copy(), v.copy(), acc.copy(), f_air.copy()
             if stepper.adaptive:
@@ -229,7 +247,7 @@ def simulate(scene: Scene, steady: SteadyFlight | None = None) -> Result:
 def _stalled(stalls: int, nothing_happened: bool, t: float) -> int:
     """Count contact events in a row that changed nothing; a grazing corner with the rule off would loop."""
     stalls = stalls + 1 if nothing_happened else 0
-    if stalls > 100:
+    if stalls > MAX_STALLS:
         raise ContactError(
             f"contact events stall at t = {t:.6g} s: a corner grazes the asperities without impact "
             "(contact.rest_velocity = 0 turns the chattering rule off)"
@@ -260,7 +278,7 @@ class _Stepper:
 
     def done(self, t: float) -> bool:
         if self.adaptive:
-            return t >= self.t_end * (1.0 - 1e-12)
+            return t >= self.t_end * (1.0 - TIME_ROUND_OFF)
         return self.k >= self.n_grid
 
     def proposal(self, t: float) -> float:
@@ -270,12 +288,13 @@ class _Stepper:
 
     def accept(self, s: float, normals: np.ndarray, free: np.ndarray, dacc: np.ndarray) -> bool:
         err = km.spacing_error(normals, free, dacc, s) / self.num.step_tol
-        factor = 2.0 if err == 0.0 else min(2.0, max(0.2, 0.9 * err ** (-1.0 / 3.0)))
+        growth = MAX_STEP_GROWTH if err == 0.0 else STEP_SAFETY * err ** (-1.0 / 3.0)
+        factor = min(MAX_STEP_GROWTH, max(MIN_STEP_SHRINK, growth))
         if err > 1.0:
             self.rejected += 1
             self.s_next = s * factor
             return False
-        shortened = s < self.s_next * (1.0 - 1e-12)
+        shortened = s < self.s_next * (1.0 - TIME_ROUND_OFF)
         self.s_next = max(self.s_next, s * factor) if shortened else s * factor
         return True
 
@@ -327,9 +346,9 @@ class _Samples:
         t, q, v, f = np.array(self.t), np.array(self.q), np.array(self.v), np.array(self.f)
         if not self.adaptive or self.interval <= 0.0 or t.size < 2:
             return t, q, v, f
-        n = int(np.floor(t[-1] / self.interval * (1.0 + 1e-12)))
+        n = int(np.floor(t[-1] / self.interval * (1.0 + TIME_ROUND_OFF)))
         ts = self.interval * np.arange(n + 1)
-        if ts[-1] < t[-1] * (1.0 - 1e-12):
+        if ts[-1] < t[-1] * (1.0 - TIME_ROUND_OFF):
             ts = np.append(ts, t[-1])
         i = np.clip(np.searchsorted(t, ts, side="right") - 1, 0, t.size - 2)
         h = (t[i + 1] - t[i])[:, None]
@@ -342,81 +361,3 @@ class _Samples:
         vs = (d00 * q0 + d01 * q1) / h + d10 * v0 + d11 * v1
         fs = (1.0 - x) * f[i] + x * f[i + 1]
         return ts, qs, vs, fs
-
-
-def _resolve_impacts(
-    scene: Scene,
-    q: np.ndarray,
-    v: np.ndarray,
-    t: float,
-    normals: np.ndarray,
-    touch_tol: float,
-    minv: np.ndarray,
-    impacts: list[Impact],
-    contact: SustainedContact,
-    acc: np.ndarray,
-) -> np.ndarray:
-    """Impacts at every free corner touching the asperities and approaching them, resolved together.
-
-    Corners that touch at once (the rear pair at zero roll) share one impact:
-    the impulses p >= 0 solve A p = (1 + alpha) w over the approaching set,
-    w_c = -n_c . v + eps_c V the relative approach velocities and
-    A_cd = n_c . M^-1 g_d (least-norm when the corners are dependent, as the
-    four corners of a level slider; corners whose impulse would pull are
-    dropped).  Symmetric contacts thus get symmetric impulses, and a lone
-    corner gets the single-corner law of :mod:`solver.rails.contact` exactly.  A
-    corner whose rebound would be slower than ``contact.rest_velocity``
-    while pressed on is held instead (:class:`SustainedContact`): its target
-    is zero normal velocity.  Approach velocities below 1e-10 of the
-    corners' speed scale are round-off, not approaches.  Passes repeat
-    (at most 8) while an impulse makes another touching corner approach.
-    """
-    mu, alpha, V = scene.contact.mu, scene.contact.alpha, scene.disk.speed
-    touching = np.flatnonzero((np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol) & contact.free)
-    if touching.size == 0:
-        return v
-    slopes = np.array([surface_slope(scene, int(c), float(q[1])) for c in range(len(normals))])
-    response = contact.response
-    for _ in range(8):
-        gap_rates = normals @ v
-        w = -gap_rates + slopes * V
-        scale = float(np.abs(gap_rates).max() + np.abs(slopes).max() * V) + 1e-300
-        active = [int(c) for c in touching if w[c] > 1e-10 * scale and not contact.held[c]]
-        pressed = [int(c) for c in touching if not contact.held[c] and w[c] <= 1e-10 * scale]
-        grazing = [c for c in pressed if contact.should_hold(c, v, acc) and gap_rates[c] <= 0.0]
-        if not active and not grazing:
-            break
-        hold = set(grazing)
-        for _attempt in range(2):
-            idx = np.array(active + sorted(hold - set(active)), dtype=int)
-            target = np.where(np.isin(idx, list(hold)), -gap_rates[idx], (1.0 + alpha) * w[idx])
-            A = normals[idx] @ response[idx].T
-            for G in np.diag(A):
-                if G <= 0.0:
-                    raise ContactError(
-                        f"friction mu = {mu} makes the impact indeterminate (n . M^-1 g = {G:.3g} <= 0, "
-                        "Painleve's paradox)"
-                    )
-            p = np.linalg.lstsq(A, target, rcond=1e-12)[0]
-            if p.min() < -1e-12 * max(float(np.abs(p).max()), 1e-300):
-                p = nnls(A, target)[0]
-            v_new = v + response[idx].T @ p
-            newly = {int(c) for c in idx if c not in hold and contact.should_hold(int(c), v_new, acc)}
-            if not newly:
-                break
-            hold |= newly
-        p_floor = 1e-12 * max(float(p.max()), 1e-300)
-        for c, pc in zip(idx, p, strict=True):
-            c = int(c)
-            if c in hold:
-                contact.held[c] = True
-                contact.since[c] = t
-            if pc > p_floor:
-                u_before = -float(gap_rates[c])
-                u_after = -float(normals[c] @ v_new)
-                wedge = slopes[c] * V
-                impacts.append(Impact(t, c, float(pc), u_before + wedge, u_after + wedge, u_before, u_after))
-        v = v_new
-        if contact.any_held:
-            v = contact.project_velocity(v, t)
-    return v

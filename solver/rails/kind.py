@@ -22,13 +22,19 @@ STEADY_FREE = {
 WARM_UP_NUMERICS = {"nx": 21, "nx_taper": 5, "ny": 5, "dt": 1e-7, "t_end": 3e-7, "output_interval": 1e-7}
 
 
+def tiny() -> Scene:
+    """The source's scene on 21 x 5 nodes per rail, three steps of 0.1 us."""
+    from .params import Numerics
+
+    return Scene(numerics=Numerics(**WARM_UP_NUMERICS))
+
+
 def warm_up() -> None:
     """Load (or compile) the film, motion and reduced air-bearing kernels on a tiny scene, one thread."""
     from ..kernels import forcemodels as kf
-    from .params import Numerics
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
-    simulate(Scene(numerics=Numerics(**WARM_UP_NUMERICS)))
+    simulate(tiny())
     axis = np.linspace(0.0, 1.0, 4)
     q, v, acc, f = np.full(3, 0.5), np.zeros(3), np.zeros(3), np.zeros(3)
     eye, sus = np.eye(3), np.zeros(5)
@@ -46,5 +52,6 @@ KIND = SceneKind(
     simulate=simulate,
     steady_free=STEADY_FREE,
     series=SERIES,
+    tiny=tiny,
     warm_up=warm_up,
 )

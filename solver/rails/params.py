@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..params import Air, ParameterError, Section, quantity
+from ..slip import POLYNOMIAL_SLIP_LAWS
 
 
 @dataclass(frozen=True)
@@ -142,7 +143,6 @@ class Calibration(Section):
 
 
 AIR_BEARING_MODELS = ("reynolds", "quasi_static", "linearized", "none")
-SLIP_MODELS = ("first_order", "continuum", "second_order")
 CONTACT_MODELS = ("restitution",)
 
 
@@ -152,7 +152,7 @@ class Models(Section):
 
     section = "models"
     air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=AIR_BEARING_MODELS)
-    slip: str = quantity("first_order", "", "slip law", choices=SLIP_MODELS)
+    slip: str = quantity("first_order", "", "slip law", choices=POLYNOMIAL_SLIP_LAWS)
     contact: str = quantity("restitution", "", "contact law", choices=CONTACT_MODELS)
 
 

@@ -26,6 +26,23 @@ from solver.rails.params import Scene, Suspension
 
 log = logging.getLogger(__name__)
 
+#: Force scale of the balance when the preload is tiny: this fraction of p0 times a rail's area [N].
+FORCE_SCALE_FRACTION = 1e-3
+#: Starting height: this many mean free paths, at least FLOOR [m] and twice the asperity height.
+START_MEAN_FREE_PATHS = 1.5
+START_HEIGHT_FLOOR = 2.0e-8
+#: Starting pitch: this fraction of the starting height over the slider length [rad per (m/m)].
+START_PITCH_FRACTION = 0.2
+#: The balance must fall below this multiple of ``numerics.steady_tol`` (the film solve's own tolerance).
+BALANCE_TOLERANCE_FACTOR = 100.0
+#: Forward-difference steps of the attitude Jacobian: this fraction of the minimum spacing (z; over L for angles).
+JACOBIAN_STEP = 1e-4
+#: A Newton step changes the minimum spacing by at most this fraction of itself.
+MAX_SPACING_CHANGE = 0.5
+#: Step halvings of the line search, and the step fraction below which a step is taken anyway.
+MAX_LINE_SEARCH_HALVINGS = 30
+MIN_STEP_FRACTION = 1e-3
+
 
 @dataclass
 class SteadyFlight:
@@ -59,15 +76,15 @@ def _balance(film: ReynoldsFilm, scene: Scene, q: np.ndarray, P0: np.ndarray | N
     f = film.generalized_forces() + suspension_forces(scene.suspension, q)
     scale = max(
         scene.suspension.preload,
-        1e-3 * scene.air.ambient_pressure * film.length * scene.slider.rail_width,
+        FORCE_SCALE_FRACTION * scene.air.ambient_pressure * film.length * scene.slider.rail_width,
     )
     return f / np.array([scale, scale * film.length, scale * film.length])
 
 
 def initial_attitude(scene: Scene) -> np.ndarray:
     """A starting guess: flat parallel to the disk at 1.5 mean free paths (at least 20 nm)."""
-    z = max(1.5 * scene.air.mean_free_path, 2.0e-8, 2.0 * scene.disk.asperity_height)
-    return np.array([z, 0.2 * z / scene.slider.length, 0.0])
+    z = max(START_MEAN_FREE_PATHS * scene.air.mean_free_path, START_HEIGHT_FLOOR, 2.0 * scene.disk.asperity_height)
+    return np.array([z, START_PITCH_FRACTION * z / scene.slider.length, 0.0])
 
 
 def calibrated_suspension(scene: Scene, film: ReynoldsFilm, q: np.ndarray) -> Suspension:
@@ -104,7 +121,7 @@ def fly(
         suspension = calibrated_suspension(scene, film, q)
         return _steady_flight(scene, film, q, suspension, 0.0)
     q = initial_attitude(scene) if q0 is None else np.array(q0, dtype=float)
-    tol = 100.0 * scene.numerics.steady_tol
+    tol = BALANCE_TOLERANCE_FACTOR * scene.numerics.steady_tol
     L = film.length
     P = None
     f = _balance(film, scene, q, P)
@@ -113,7 +130,7 @@ def fly(
         if np.abs(f).max() < tol:
             break
         hmin = film.spacing(q).min()
-        steps = np.array([1e-4 * hmin, 1e-4 * hmin / L, 1e-4 * hmin / L])
+        steps = np.array([JACOBIAN_STEP * hmin, JACOBIAN_STEP * hmin / L, JACOBIAN_STEP * hmin / L])
         jac = np.empty((3, 3))
         for k in range(3):
             dq = np.zeros(3)
@@ -122,15 +139,15 @@ def fly(
         dq = np.linalg.solve(jac, -f)
         # damp so the minimum spacing changes by at most half of itself
         change = np.abs(dq[0]) + L * (np.abs(dq[1]) + np.abs(dq[2]))
-        scale = min(1.0, 0.5 * hmin / max(change, 1e-300))
-        for _ in range(30):
+        scale = min(1.0, MAX_SPACING_CHANGE * hmin / max(change, 1e-300))
+        for _ in range(MAX_LINE_SEARCH_HALVINGS):
             trial = q + scale * dq
             try:
                 f_trial = _balance(film, scene, trial, P)
             except SteadyFilmError:
                 scale *= 0.5
                 continue
-            if np.abs(f_trial).max() < np.abs(f).max() or scale < 1e-3:
+            if np.abs(f_trial).max() < np.abs(f).max() or scale < MIN_STEP_FRACTION:
                 break
             scale *= 0.5
         q, f, P = trial, f_trial, film.P.copy()

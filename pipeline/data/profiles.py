@@ -25,10 +25,9 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from pipeline.data.netcdf import var, write_netcdf
+from pipeline.provenance import base_attrs
 from solver.disk import MIN_SAMPLES, DiskProfile, profile_from_arrays
-
-from .provenance import base_attrs
-from .store import var, write_netcdf
 
 #: Length units accepted in netCDF ``units`` attributes, in metres.
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "micron": 1e-6, "microns": 1e-6, "nm": 1e-9}

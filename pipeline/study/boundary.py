@@ -31,7 +31,7 @@ import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
-from .study import Case, Study, lattice, make_case
+from pipeline.study.spec import Case, Study, lattice, make_case
 
 
 @dataclass
@@ -85,7 +85,7 @@ class Line:
 
 
 class BisectionPlanner:
-    """Planner for :func:`pipeline.fanout.execute`: bisect the boundary axis on every line."""
+    """Planner for :func:`pipeline.run.fanout.execute`: bisect the boundary axis on every line."""
 
     def __init__(self, study: Study) -> None:
         if study.boundary is None:

@@ -6,7 +6,7 @@ A study file (TOML) holds
     [set]      scene values applied to every run (same keys as ``--set``)
     [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
                values = [...]  or  start, stop, step  (stop included)
-    [outputs]  variables (subset of RUN_VARIABLES), impacts (first impacts kept per run)
+    [outputs]  variables (a subset of the kind's outputs, pipeline.classify), impacts (first impacts kept per run)
     [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above"
 
 Everything is checked when the file is loaded, before any run: unknown
@@ -29,52 +29,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from solver.kinds import field_metadata, scene_from_dict
+from pipeline import __version__
+from pipeline.config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml
+from pipeline.kinds import adapter_of
+from solver.kinds import DEFAULT_KIND, field_metadata, scene_from_dict
 from solver.params import ParameterError
-from solver.rails.params import Scene
-
-from . import __version__
-from .config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml
 
 MODES = ("grid", "boundary", "multifidelity")
 
-RUN_VARIABLES = (
-    "stable",
-    "status",
-    "message",
-    "n_impacts",
-    "n_larger_than_first",
-    "n_front_corner_impacts",
-    "first_impulse",
-    "max_impulse_ratio",
-    "first_impact_time",
-    "steps",
-    "newton_iterations",
-    "wall_time",
-)
-#: Per-run outputs of an "abs" scene (partial contact): bouncing and contact measures.
-ABS_RUN_VARIABLES = (
-    "status",
-    "message",
-    "bouncing_3sigma",
-    "mean_flying_height",
-    "min_clearance",
-    "mean_contact_force",
-    "max_contact_force",
-    "contact_fraction",
-    "mean_adhesion_force",
-    "mean_friction_force",
-    "fh_peak_frequency",
-    "pitch_peak_frequency",
-    "roll_peak_frequency",
-    "steady_flying_height",
-    "steady_pitch",
-    "steady_roll",
-    "steady_contact_force",
-    "steps",
-    "newton_iterations",
-    "wall_time",
-)
 ALLOWED = {
     "study": {"name", "title", "scene", "mode", "description"},
     "multifidelity": {"cheap", "axes"},
@@ -109,7 +71,7 @@ class Case:
     index: tuple[int, ...]
     coords: dict[str, Any]  # dim -> value
     overrides: dict[str, Any]  # scene key -> value
-    scene: Scene
+    scene: Any  # a scene of any kind
     run_id: str
 
     @property
@@ -192,9 +154,9 @@ def code_fingerprint() -> str:
     Part of every run id, so that a ledger never hands back a result computed
     by other code: after any change to the numerics, every run is computed anew.
     """
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     files = sorted((root / "solver").rglob("*.py")) + [
-        root / "pipeline" / n for n in ("runner.py", "classify.py", "profiles.py")
+        root / "pipeline" / n for n in ("run/runner.py", "classify.py", "kinds.py", "data/profiles.py")
     ]
     digest = hashlib.sha256()
     for f in files:
@@ -203,7 +165,7 @@ def code_fingerprint() -> str:
     return digest.hexdigest()[:16]
 
 
-def run_id(scene: Scene) -> str:
+def run_id(scene: Any) -> str:
     """Hash of every scene parameter, the package version and the code: the ledger key of a run."""
     payload = json.dumps({"scene": scene.to_dict(), "version": __version__, "code": code_fingerprint()}, sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:20]
@@ -229,7 +191,7 @@ def _check_keys(path: Path, where: str, table: dict[str, Any], allowed: set[str]
             raise _study_error(path, where, f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
 
 
-def _parse_axis(path: Path, n: int, raw: Any, kind: str = "rails") -> Axis:
+def _parse_axis(path: Path, n: int, raw: Any, kind: str = DEFAULT_KIND) -> Axis:
     where = f"[[axes]] #{n + 1}"
     if not isinstance(raw, dict):
         raise _study_error(path, where, "must be a table")
@@ -315,7 +277,7 @@ def load_study(
     raw_axes = data.get("axes", [])
     if not isinstance(raw_axes, list) or not raw_axes:
         raise _study_error(path, "[[axes]]", "a study needs at least one axis")
-    axes = tuple(_parse_axis(path, n, raw, base.get("kind", "rails")) for n, raw in enumerate(raw_axes))
+    axes = tuple(_parse_axis(path, n, raw, base.get("kind", DEFAULT_KIND)) for n, raw in enumerate(raw_axes))
     for attr in ("key", "dim"):
         seen = [getattr(a, attr) for a in axes]
         dup = {s for s in seen if seen.count(s) > 1}
@@ -329,76 +291,21 @@ def load_study(
         if key in {a.key for a in axes}:
             raise ConfigError(f"--set {text!r}: {key!r} is an axis of {path}; change the axis in the study file")
 
-    outputs = data.get("outputs", {})
-    _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
-    kind = base.get("kind", "rails")
-    known = ABS_RUN_VARIABLES if kind == "abs" else RUN_VARIABLES
-    variables = outputs.get("variables", list(known))
-    if not isinstance(variables, list):
-        raise _study_error(path, "[outputs] variables", "must be a list")
-    for v in variables:
-        if v not in known:
-            allowed = ", ".join(known)
-            raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
-    for needed in ("status",) if kind == "abs" else ("stable", "status"):
-        if needed not in variables:
-            variables = [needed, *variables]
-    impacts = outputs.get("impacts", 0 if kind == "abs" else 20)
-    if not isinstance(impacts, int) or isinstance(impacts, bool) or impacts < 0:
-        raise _study_error(path, "[outputs] impacts", f"{impacts!r} must be an integer >= 0")
-
-    boundary = None
-    if "boundary" in data:
-        b = data["boundary"]
-        _check_keys(path, "[boundary]", b, ALLOWED["boundary"])
-        axis_key = b.get("axis")
-        if axis_key not in {a.key for a in axes}:
-            raise _study_error(
-                path, "[boundary] axis", f"{axis_key!r} is not one of the axes ({', '.join(a.key for a in axes)})"
-            )
-        values = next(a.values for a in axes if a.key == axis_key)
-        if not all(isinstance(v, int | float) for v in values) or len(values) < 2:
-            raise _study_error(path, "[boundary] axis", f"{axis_key!r} needs at least two numeric values")
-        tol = b.get("tolerance")
-        if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 < tol <= max(values) - min(values):
-            raise _study_error(
-                path, "[boundary] tolerance", f"{tol!r} must be a number in (0, {max(values) - min(values):g}]"
-            )
-        side = b.get("stable_side", "below")
-        if side not in ("below", "above"):
-            raise _study_error(path, "[boundary] stable_side", f"{side!r} is not allowed (allowed: below, above)")
-        boundary = Boundary(axis_key, float(tol), side)
+    adapter = adapter_of(base)
+    variables, impacts = _parse_outputs(path, data.get("outputs", {}), adapter)
+    traced = [name for name in ("boundary", "multifidelity") if name in data or mode == name]
+    if traced and adapter.class_flag is None:
+        raise _study_error(
+            path,
+            f"[{traced[0]}]" if traced[0] in data else f"mode = {mode!r}",
+            f"needs runs with a class to trace, and scene kind {adapter.name!r} has none (its runs are measured, "
+            "not classified): use mode = 'grid'",
+        )
+    boundary = _parse_boundary(path, data["boundary"], axes) if "boundary" in data else None
     if mode == "boundary" and boundary is None:
         raise _study_error(path, "mode = 'boundary'", "needs a [boundary] table (axis, tolerance)")
-
-    cheap = None
-    cheap_axes: tuple[str, ...] = ()
-    if "multifidelity" in data:
-        mf = data["multifidelity"]
-        _check_keys(path, "[multifidelity]", mf, ALLOWED["multifidelity"])
-        cheap = _flatten(mf.get("cheap", {}))
-        if not cheap:
-            raise _study_error(path, "[multifidelity] cheap", "needs scene keys for the cheap pass")
-        for key in cheap:
-            if key in {a.key for a in axes}:
-                raise _study_error(path, "[multifidelity.cheap]", f"{key!r} is also an axis")
-        try:
-            scene_from_dict(apply_overrides(base, cheap, source=f"{path} [multifidelity.cheap]"), source=str(path))
-        except ParameterError as err:
-            raise _study_error(path, "[multifidelity.cheap]", str(err)) from None
-        if apply_overrides(base, cheap, source=str(path)) == base:
-            raise _study_error(path, "[multifidelity.cheap]", "does not change the scene")
-        neighbour_axes = mf.get("axes", [a.key for a in axes])
-        unknown = (
-            [k for k in neighbour_axes if k not in {a.key for a in axes}] if isinstance(neighbour_axes, list) else 1
-        )
-        if unknown or not neighbour_axes:
-            raise _study_error(
-                path,
-                "[multifidelity] axes",
-                f"{neighbour_axes!r} must list axes of the study ({[a.key for a in axes]})",
-            )
-        cheap_axes = tuple(neighbour_axes)
+    cheap, cheap_axes = _parse_multifidelity(path, data["multifidelity"], axes, base) if "multifidelity" in data else (
+        None, ())  # fmt: skip
     if mode == "multifidelity" and cheap is None:
         raise _study_error(path, "mode = 'multifidelity'", "needs a [multifidelity.cheap] table of scene keys")
 
@@ -428,6 +335,74 @@ def load_study(
             except ParameterError as err:
                 raise _study_error(path, f"axis {a.key!r}", f"value {v!r} is not allowed: {err}") from None
     return study
+
+
+def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], int]:
+    """[outputs]: the kind's outputs a study keeps (its required ones always) and the first impacts kept."""
+    _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
+    known = adapter.study_outputs
+    variables = outputs.get("variables", list(known))
+    if not isinstance(variables, list):
+        raise _study_error(path, "[outputs] variables", "must be a list")
+    for v in variables:
+        if v not in known:
+            allowed = ", ".join(known)
+            raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
+    for needed in reversed(adapter.required_outputs):
+        if needed not in variables:
+            variables = [needed, *variables]
+    impacts = outputs.get("impacts", adapter.impacts_kept)
+    if not isinstance(impacts, int) or isinstance(impacts, bool) or impacts < 0:
+        raise _study_error(path, "[outputs] impacts", f"{impacts!r} must be an integer >= 0")
+    return variables, impacts
+
+
+def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...]) -> Boundary:
+    """[boundary]: the axis to bisect, its tolerance and the side the stable runs are on."""
+    _check_keys(path, "[boundary]", b, ALLOWED["boundary"])
+    axis_key = b.get("axis")
+    if axis_key not in {a.key for a in axes}:
+        raise _study_error(
+            path, "[boundary] axis", f"{axis_key!r} is not one of the axes ({', '.join(a.key for a in axes)})"
+        )
+    values = next(a.values for a in axes if a.key == axis_key)
+    if not all(isinstance(v, int | float) for v in values) or len(values) < 2:
+        raise _study_error(path, "[boundary] axis", f"{axis_key!r} needs at least two numeric values")
+    tol = b.get("tolerance")
+    if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 < tol <= max(values) - min(values):
+        raise _study_error(
+            path, "[boundary] tolerance", f"{tol!r} must be a number in (0, {max(values) - min(values):g}]"
+        )
+    side = b.get("stable_side", "below")
+    if side not in ("below", "above"):
+        raise _study_error(path, "[boundary] stable_side", f"{side!r} is not allowed (allowed: below, above)")
+    return Boundary(axis_key, float(tol), side)
+
+
+def _parse_multifidelity(
+    path: Path, mf: Any, axes: tuple[Axis, ...], base: dict[str, Any]
+) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """[multifidelity]: the scene keys of the cheap pass and the axes along which cells are neighbours."""
+    _check_keys(path, "[multifidelity]", mf, ALLOWED["multifidelity"])
+    cheap = _flatten(mf.get("cheap", {}))
+    if not cheap:
+        raise _study_error(path, "[multifidelity] cheap", "needs scene keys for the cheap pass")
+    for key in cheap:
+        if key in {a.key for a in axes}:
+            raise _study_error(path, "[multifidelity.cheap]", f"{key!r} is also an axis")
+    try:
+        scene_from_dict(apply_overrides(base, cheap, source=f"{path} [multifidelity.cheap]"), source=str(path))
+    except ParameterError as err:
+        raise _study_error(path, "[multifidelity.cheap]", str(err)) from None
+    if apply_overrides(base, cheap, source=str(path)) == base:
+        raise _study_error(path, "[multifidelity.cheap]", "does not change the scene")
+    neighbour_axes = mf.get("axes", [a.key for a in axes])
+    unknown = [k for k in neighbour_axes if k not in {a.key for a in axes}] if isinstance(neighbour_axes, list) else 1
+    if unknown or not neighbour_axes:
+        raise _study_error(
+            path, "[multifidelity] axes", f"{neighbour_axes!r} must list axes of the study ({[a.key for a in axes]})"
+        )
+    return cheap, tuple(neighbour_axes)
 
 
 def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:

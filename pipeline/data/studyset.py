@@ -1,11 +1,11 @@
 """A study's dataset: one cell per case, dimensions named after the axes.
 
-Variables (each with ``units`` and ``long_name``):
+Variables (each with ``units`` and ``long_name``): the study's outputs, declared once per kind in
+:mod:`pipeline.classify` (for kind "rails": ``stable`` int8, flags -1 not_classified, 0 unstable, 1 stable;
+``status`` int8, flags -2 not_run, -1 failed, 0 completed, 1 stopped (impact limit); ``message``, the run's
+status message (the error for a failed run); counts (int32, -1 where the run has none), impulses and times (NaN
+where none)), and:
 
-- ``stable`` int8, flags -1 not_classified, 0 unstable, 1 stable;
-- ``status`` int8, flags -2 not_run, -1 failed, 0 completed, 1 stopped (impact limit);
-- ``message``: the run's status message (the error for a failed run);
-- counts (int32, -1 where the run has none), impulses and times (NaN where none);
 - ``impact_time``/``impact_corner``/``impact_impulse`` on an extra ``impact`` dimension;
 - ``boundary_lower``/``boundary_upper`` over the other axes: the bracket of the
   stable/unstable boundary on the boundary axis, from the grid (first
@@ -23,58 +23,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .provenance import base_attrs
-from .store import STABLE_FLAGS, STATUS_FLAGS, var
-from .study import Axis, Case, Study, study_attrs
-
-NOT_RUN = -2
-STUDY_STATUS_FLAGS = {
-    "flag_values": np.array([NOT_RUN, *STATUS_FLAGS["flag_values"]], dtype=np.int8),
-    "flag_meanings": "not_run " + STATUS_FLAGS["flag_meanings"],
-}
-STUDY_STABLE_FLAGS = {
-    "flag_values": np.array([-1, *STABLE_FLAGS["flag_values"]], dtype=np.int8),
-    "flag_meanings": "not_classified " + STABLE_FLAGS["flag_meanings"],
-}
-MISSING_COUNT = "-1 where the run failed or was not run"
-
-# name -> (dtype, fill, units, long_name, extra attrs)
-CELL_VARIABLES: dict[str, tuple[Any, Any, str, str, dict[str, Any]]] = {
-    "stable": (np.int8, -1, "1", "impulse-growth classification (unstable if a later impulse exceeds the first)",
-               STUDY_STABLE_FLAGS),
-    "status": (np.int8, NOT_RUN, "1", "run status", STUDY_STATUS_FLAGS),
-    "message": (object, "", "", "status message of the run (the error of a failed run)", {}),
-    "n_impacts": (np.int32, -1, "1", "number of impacts", {"comment": MISSING_COUNT}),
-    "n_larger_than_first": (np.int32, -1, "1", "impacts larger than the first", {"comment": MISSING_COUNT}),
-    "n_front_corner_impacts": (np.int32, -1, "1", "impacts at the front corners A, C", {"comment": MISSING_COUNT}),
-    "first_impulse": (np.float64, np.nan, "N s", "first impulse", {}),
-    "max_impulse_ratio": (np.float64, np.nan, "1", "largest later impulse / first impulse", {}),
-    "first_impact_time": (np.float64, np.nan, "s", "time of the first impact", {}),
-    "steps": (np.int32, -1, "1", "time steps taken", {"comment": MISSING_COUNT}),
-    "newton_iterations": (np.int32, -1, "1", "Newton iterations", {"comment": MISSING_COUNT}),
-    "wall_time": (np.float64, np.nan, "s", "wall time of the run on its worker", {}),
-    "bouncing_3sigma": (np.float64, np.nan, "m", "3 sigma of the flying height at the element after settling", {}),
-    "mean_flying_height": (np.float64, np.nan, "m", "mean flying height at the element after settling", {}),
-    "min_clearance": (np.float64, np.nan, "m", "smallest spacing of the face to the resolved disk", {}),
-    "mean_contact_force": (np.float64, np.nan, "N", "mean normal contact force after settling", {}),
-    "max_contact_force": (np.float64, np.nan, "N", "largest normal contact force after settling", {}),
-    "contact_fraction": (np.float64, np.nan, "1", "fraction of samples with contact force above the threshold", {}),
-    "mean_adhesion_force": (np.float64, np.nan, "N", "mean adhesion force (negative: towards the disk)", {}),
-    "mean_friction_force": (np.float64, np.nan, "N", "mean friction force", {}),
-    "fh_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the flying-height spectrum", {}),
-    "pitch_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the pitch spectrum", {}),
-    "roll_peak_frequency": (np.float64, np.nan, "Hz", "main peak of the roll spectrum", {}),
-    "steady_flying_height": (np.float64, np.nan, "m", "steady flying height at the element (smooth mean disk)", {}),
-    "steady_pitch": (np.float64, np.nan, "rad", "steady pitch", {}),
-    "steady_roll": (np.float64, np.nan, "rad", "steady roll", {}),
-    "steady_contact_force": (np.float64, np.nan, "N", "steady contact force (statistical roughness)", {}),
-}  # fmt: skip
-
-#: Time series an "abs" run returns in its record: (units, long_name).
-SERIES_VARIABLES = {
-    "flying_height": ("m", "flying height at the read/write element"),
-    "contact_force": ("N", "normal contact force"),
-}
+from pipeline.classify import NOT_RUN
+from pipeline.data.netcdf import var
+from pipeline.kinds import adapter_of
+from pipeline.provenance import base_attrs
+from pipeline.study.spec import Axis, Case, Study, study_attrs
 
 
 def _coord(axis: Axis, values: tuple[Any, ...]) -> tuple[str, np.ndarray, dict[str, str]]:
@@ -96,7 +49,9 @@ def study_dataset(
     values = [axis_values.get(a.dim, a.values) for a in study.axes]
     shape = tuple(len(v) for v in values)
     dims = study.dims
-    arrays = {name: np.full(shape, spec[1], dtype=spec[0]) for name, spec in CELL_VARIABLES.items()}
+    adapter = adapter_of(study.base)
+    outputs = adapter.outputs
+    arrays = {name: np.full(shape, out.fill, dtype=out.dtype) for name, out in outputs.items()}
     k = study.impacts_kept
     imp_time = np.full((*shape, k), np.nan)
     imp_impulse = np.full((*shape, k), np.nan)
@@ -104,11 +59,11 @@ def study_dataset(
     run_ids = np.full(shape, "", dtype=object)
     for index, (case, record) in cells.items():
         run_ids[index] = case.run_id
-        for name, (_dtype, fill, *_rest) in CELL_VARIABLES.items():
-            value = record.get(name, fill)
-            arrays[name][index] = fill if value is None else value
-        if record.get("status", -1) == -1:
-            arrays["stable"][index] = -1
+        for name, out in outputs.items():
+            value = record.get(name, out.fill)
+            arrays[name][index] = out.fill if value is None else value
+        if record.get("status", -1) == -1 and adapter.class_flag:
+            arrays[adapter.class_flag][index] = outputs[adapter.class_flag].fill
         impacts = record.get("impacts") or {}
         n = min(len(impacts.get("time", [])), k)
         imp_time[index][:n] = impacts["time"][:n] if n else []
@@ -117,8 +72,8 @@ def study_dataset(
 
     data: dict[str, xr.Variable] = {}
     for name in study.variables:
-        dtype, _fill, units, long_name, extra = CELL_VARIABLES[name]
-        data[name] = var(arrays[name], dims, units, long_name, **extra)
+        out = outputs[name]
+        data[name] = var(arrays[name], dims, out.units, out.long_name, **out.attrs)
     data["run_id"] = var(run_ids, dims, "", "ledger key of the run (hash of its scene and the package version)")
     if k:
         idims = (*dims, "impact")
@@ -129,7 +84,7 @@ def study_dataset(
     series_time = next((r["series"]["time"] for _c, r in cells.values() if r.get("series")), None)
     if series_time is not None:
         nt = len(series_time)
-        for name, (units, long_name) in SERIES_VARIABLES.items():
+        for name, (units, long_name) in adapter.series_kept.items():
             arr = np.full((*shape, nt), np.nan)
             for index, (_case, record) in cells.items():
                 values_t = (record.get("series") or {}).get(name)
@@ -146,6 +101,7 @@ def study_dataset(
     ran = int(np.count_nonzero(arrays["status"] != NOT_RUN))
     ds.attrs.update(base_attrs(study.title))
     ds.attrs.update(study_attrs(study))
+    ds.attrs.update(scene_kind=adapter.name, product="study")
     ds.attrs["runs"] = ran
     ds.attrs["failed_runs"] = int(np.count_nonzero(arrays["status"] == -1))
     if study.boundary is not None:

@@ -8,15 +8,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
-from .figures import _pyplot
+from pipeline.figures.common import pyplot
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def plot_abs_run(ds: xr.Dataset) -> Figure:
+def plot_run(ds: xr.Dataset) -> Figure:
     """Flying height, pitch, roll and contact force against time (left), their spectra (right)."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(4, 2, figsize=(11.0, 9.0), constrained_layout=True, gridspec_kw={"width_ratios": [3, 2]})
     t_ms = ds["time"].values * 1e3
     settle = float(ds.attrs.get("settle_time", 0.0)) * 1e3
@@ -61,9 +61,9 @@ def plot_abs_run(ds: xr.Dataset) -> Figure:
     return fig
 
 
-def plot_abs_study(ds: xr.Dataset) -> Figure:
+def plot_study(ds: xr.Dataset) -> Figure:
     """3-sigma bouncing and mean contact force against the first axis, one line per value of the others."""
-    plt = _pyplot()
+    plt = pyplot()
     dims = [d for d in ds["status"].dims]
     first, rest = dims[0], dims[1:]
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
@@ -105,9 +105,9 @@ def _scale(coord: xr.DataArray) -> tuple[float, str]:
     return 1.0, units or "1"
 
 
-def plot_abs_fly(ds: xr.Dataset) -> Figure:
+def plot_fly(ds: xr.Dataset) -> Figure:
     """Steady pressure over the face, with the etched regions' outlines."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
     x, y = ds["x"].values * 1e3, ds["y"].values * 1e3
     from matplotlib.colors import TwoSlopeNorm

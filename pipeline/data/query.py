@@ -15,16 +15,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from .config import ConfigError, parse_override
-from .store import open_result
+from pipeline.config import ConfigError, parse_override
+from pipeline.data.netcdf import open_result
+from pipeline.kinds import adapter_of
 
 
 class QueryError(ConfigError):
     """A selection that does not fit the dataset."""
-
-
-DEFAULT_VARS = ("stable", "status", "n_impacts", "n_larger_than_first", "n_front_corner_impacts",
-                "first_impulse", "max_impulse_ratio", "wall_time")  # fmt: skip
 
 
 def _dim_of(ds: xr.Dataset, key: str) -> str:
@@ -59,7 +56,7 @@ def select(ds: xr.Dataset, where: list[str]) -> xr.Dataset:
 def table(ds: xr.Dataset, where: list[str], variables: list[str] | None = None) -> str:
     """The selected cells as a text table, one row per cell."""
     cells = select(ds, where)
-    names = variables or [v for v in DEFAULT_VARS if v in ds]
+    names = variables or [v for v in adapter_of(ds).study_outputs if v in ds and v != "message"]
     for name in names:
         if name not in ds.data_vars:
             raise QueryError(f"--var {name}: no such variable (variables: {', '.join(map(str, ds.data_vars))})")

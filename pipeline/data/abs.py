@@ -7,29 +7,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, STATUS_FLAGS
+from pipeline.data.netcdf import product_attrs, var
 from solver.abs.integrate import SERIES, AbsResult, spectrum, summarize
 from solver.abs.params import AbsScene
 from solver.abs.steady import AbsSteady
-
-from .provenance import base_attrs
-from .store import STATUS_FLAGS, scene_attrs, var
-
-SUMMARY_UNITS = {
-    "bouncing_3sigma": ("m", "3 sigma of the flying height at the element after the settling time"),
-    "mean_flying_height": ("m", "mean flying height at the element after the settling time"),
-    "min_clearance": ("m", "smallest spacing of the face to the resolved disk surface after settling"),
-    "mean_contact_force": ("N", "mean normal contact force after settling"),
-    "max_contact_force": ("N", "largest normal contact force after settling"),
-    "contact_fraction": ("1", "fraction of samples with contact force above numerics.contact_threshold"),
-    "mean_adhesion_force": ("N", "mean adhesion force (negative: towards the disk)"),
-    "mean_friction_force": ("N", "mean friction force"),
-    "fh_peak_frequency": ("Hz", "main peak of the flying-height spectrum"),
-    "fh_peak_amplitude": ("m", "amplitude of the flying-height spectrum's main peak"),
-    "pitch_peak_frequency": ("Hz", "main peak of the pitch spectrum"),
-    "pitch_peak_amplitude": ("rad", "amplitude of the pitch spectrum's main peak"),
-    "roll_peak_frequency": ("Hz", "main peak of the roll spectrum"),
-    "roll_peak_amplitude": ("rad", "amplitude of the roll spectrum's main peak"),
-}
 
 
 def steady_variables(steady: AbsSteady, prefix: str = "") -> dict[str, xr.Variable]:
@@ -48,11 +30,11 @@ def steady_variables(steady: AbsSteady, prefix: str = "") -> dict[str, xr.Variab
     }
 
 
-def abs_fly_dataset(steady: AbsSteady, scene: AbsScene, depth: np.ndarray | None = None) -> xr.Dataset:
+def fly_dataset(steady: AbsSteady, scene: AbsScene) -> xr.Dataset:
+    """Steady flight: attitude, spacings, forces, the pressure and the etch depth on the grid."""
     data = steady_variables(steady)
     data["pressure"] = var(steady.pressure, ("x", "y"), "Pa", "air-bearing pressure")
-    if depth is not None:
-        data["depth"] = var(depth, ("x", "y"), "m", "etch depth of the face (control-volume mean)")
+    data["depth"] = var(steady.depth, ("x", "y"), "m", "etch depth of the face")
     data["iterations"] = var(steady.iterations, (), "1", "attitude Newton iterations")
     data["reynolds_solves"] = var(steady.reynolds_solves, (), "1", "sparse Reynolds solves")
     data["force_residual"] = var(steady.force_residual, (), "1", "force balance residual / preload")
@@ -62,13 +44,11 @@ def abs_fly_dataset(steady: AbsSteady, scene: AbsScene, depth: np.ndarray | None
         "y": ("y", steady.y, {"units": "m", "long_name": "position from the centre line"}),
     }
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs.update(base_attrs(f"Steady flight of scene {scene.name}"))
-    ds.attrs.update(scene_attrs(scene))
-    ds.attrs["scene_kind"] = "abs"
+    ds.attrs.update(product_attrs(f"Steady flight of scene {scene.name}", scene, "fly"))
     return ds
 
 
-def abs_run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
+def run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
     """One partial-contact run: attitude and force histories, spectra, summary, provenance."""
     summary = summarize(result, scene)
     data: dict[str, Any] = {
@@ -88,9 +68,9 @@ def abs_run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
         f, amp = spectrum(result.t[keep], signal[keep])
         freq = f
         data[f"{name}_spectrum"] = var(amp, ("frequency",), units, f"amplitude spectrum of {name} after settling")
+    outputs = {**ABS_OUTPUTS, **ABS_RUN_ONLY_OUTPUTS}
     for key, value in summary.items():
-        units, long_name = SUMMARY_UNITS[key]
-        data[key] = var(value, (), units, long_name)
+        data[key] = var(value, (), outputs[key].units, outputs[key].long_name)
     data["status"] = var(np.int8(result.status), (), "1", "run status", **STATUS_FLAGS)
     for key, long_name in (("steps", "time steps"), ("newton_iterations", "Newton iterations of the contact solve"),
                            ("reynolds_solves", "Reynolds solves"), ("nodes", "grid nodes")):  # fmt: skip
@@ -102,9 +82,7 @@ def abs_run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
         "frequency": ("frequency", freq, {"units": "Hz", "long_name": "frequency"}),
     }
     ds = xr.Dataset(data, coords=coords)
-    ds.attrs.update(base_attrs(f"Partial-contact dynamics of scene {scene.name}"))
-    ds.attrs.update(scene_attrs(scene))
-    ds.attrs["scene_kind"] = "abs"
+    ds.attrs.update(product_attrs(f"Partial-contact dynamics of scene {scene.name}", scene, "run"))
     ds.attrs["status_message"] = result.message
     ds.attrs["settle_time"] = scene.numerics.settle_time
     return ds

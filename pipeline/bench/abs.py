@@ -24,12 +24,11 @@ import time
 import numpy as np
 import xarray as xr
 
+from pipeline.config import load_scene
+from pipeline.data.netcdf import var, write_netcdf
+from pipeline.provenance import base_attrs
 from solver.abs.integrate import simulate_abs, summarize
 from solver.abs.steady import fly_start
-
-from .config import load_scene
-from .provenance import base_attrs
-from .store import var, write_netcdf
 
 #: (label, nx, ny, dt [s]) of the benchmark; the last one is the reference.
 CASES = (
@@ -47,7 +46,7 @@ QUICK = (("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6), ("reference 81x67, dt 0.2 
 DISTURBANCE = ["disk.rms=0.0", "initial.zdot=-0.005", "numerics.t_end=2e-4", "numerics.settle_time=0.0"]
 
 
-def run_bench_abs(args: argparse.Namespace) -> int:
+def run_bench(args: argparse.Namespace) -> int:
     cases = QUICK if args.quick else CASES
     t_end = "2e-4" if args.quick else "1e-3"
     settle = "5e-5" if args.quick else "2e-4"
@@ -129,7 +128,8 @@ def run_bench_abs(args: argparse.Namespace) -> int:
             },
             coords={"case": ("case", np.array([r["case"] for r in rows]), {"long_name": "benchmark case"})},
         )
-        ds.attrs.update(base_attrs("Scene 2 benchmark: cost per step and per simulated ms against error"))
+        ds.attrs.update(base_attrs("Scene 2 benchmark: cost per step and per simulated ms against error"),
+                        scene_kind="abs", product="bench")  # fmt: skip
         ds.attrs["reference"] = ref["case"]
         ds.attrs["baseline"] = base["case"]
         print(f"wrote {write_netcdf(ds, args.output)}")

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from .config import apply_overrides
-from .study import Case, Study
+from pipeline.config import apply_overrides
+from pipeline.study.spec import Case, Study
 
 
 def cheap_study(study: Study) -> Study:
@@ -126,7 +126,7 @@ def add_multifidelity(ds, study: Study, summary: dict[str, Any]) -> None:
     """The cheap map, the re-run cells and their counts, into a study dataset (in place)."""
     import json
 
-    from .store import var
+    from pipeline.data.netcdf import var
 
     dims = study.dims
     ds["stable_cheap"] = var(

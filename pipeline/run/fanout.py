@@ -1,6 +1,6 @@
 """Fan a study's runs out over dask.distributed workers and keep every result.
 
-The client submits :func:`pipeline.runner.run_case` futures and collects
+The client submits :func:`pipeline.run.runner.run_case` futures and collects
 them with ``as_completed``; each record is written to the ledger as it
 arrives (only the client writes files).  Workers are processes with one
 thread each and ``NUMBA_NUM_THREADS=1``; a worker plugin loads the numba
@@ -11,7 +11,7 @@ its runs; a run that kills ``allowed-failures`` + 1 workers ends as a
 ``KilledWorker`` error, which is recorded as a failed run.
 
 Which runs to compute comes from a *planner*: the grid planner hands out
-every missing case at once; the bisection planner (:mod:`pipeline.boundary`)
+every missing case at once; the bisection planner (:mod:`pipeline.study.boundary`)
 hands out the next probes as results come back.
 """
 
@@ -31,14 +31,15 @@ from typing import Any, Protocol
 import numpy as np
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from .boundary import BisectionPlanner
-from .ledger import FAILED, Ledger
-from .multifidelity import MultiFidelityPlanner, add_multifidelity
-from .provenance import PROJECT_ROOT, git_commit, now
-from .runner import run_case, warm_up
-from .store import write_netcdf
-from .study import Case, Study, lattice
-from .studyset import study_dataset
+from pipeline.data.netcdf import write_netcdf
+from pipeline.data.studyset import study_dataset
+from pipeline.kinds import adapter_of
+from pipeline.provenance import PROJECT_ROOT, git_commit, now
+from pipeline.run.ledger import FAILED, Ledger
+from pipeline.run.runner import run_case, warm_up
+from pipeline.study.boundary import BisectionPlanner
+from pipeline.study.multifidelity import MultiFidelityPlanner, add_multifidelity
+from pipeline.study.spec import Case, Study, lattice
 
 RESULTS = PROJECT_ROOT / "results"
 
@@ -172,11 +173,8 @@ class Progress:
         status = record.get("status", FAILED)
         if status == FAILED:
             verdict = f"FAILED ({record.get('message', '')[:80]})"
-        elif "bouncing_3sigma" in record:
-            verdict = (f"3sigma {record['bouncing_3sigma'] * 1e9:7.4f} nm, contact force "
-                       f"{record['mean_contact_force'] * 1e3:8.5f} mN")  # fmt: skip
         else:
-            verdict = f"{'stable  ' if record.get('stable') else 'unstable'} {record.get('n_impacts', 0):4d} impacts"
+            verdict = adapter_of(case.scene_dict).progress(record)
         count = f"{self.done}/{self.total}" if self.total else f"{self.done}"
         left = ""
         if self.total and self.walls:

@@ -36,23 +36,19 @@ import itertools
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 import xarray as xr
 
-from solver.kernels import reynolds as kr
-from solver.rails.film import make_film
+from pipeline.classify import classify_impulses
+from pipeline.config import load_scene
+from pipeline.data.netcdf import var, write_netcdf
+from pipeline.provenance import base_attrs
+from pipeline.run.cache import DiskStore
+from solver.rails.baseline import sparse_direct_step_cost
 from solver.rails.integrate import Result, simulate
 from solver.rails.params import Scene
 from solver.rails.steady import SteadyFlight, fly
-
-from .classify import classify_impulses
-from .config import load_scene
-from .provenance import base_attrs
-from .store import var, write_netcdf
 
 N_COMPARED = 3  # impulses compared (later impacts of a chaotic sequence drift apart)
 IMPULSE_TARGET = 0.01
@@ -110,49 +106,12 @@ def _scene(base: Scene, numerics: dict, model: str = "reynolds", **initial) -> S
     return scene
 
 
-def sparse_direct_step_cost(scene: Scene, n_steps: int = 10) -> float:
-    """Median seconds per step of the baseline: exact-Jacobian midpoint step, scipy sparse direct solve."""
-    film = make_film(scene)
-    steady = fly(scene, film=film)
-    q_old = steady.q
-    q_new = steady.q + np.array([-1e-9, 5e-7, 1e-6])
-    shape = film.P.shape
-    ny = shape[2]
-    R = np.zeros(shape)
-    J = [np.zeros(shape) for _ in range(6)]
-    interior = np.zeros(shape, dtype=bool)
-    interior[:, 1:-1, 1:-1] = True
-    H_new, H_old = np.empty(shape), np.empty(shape)
-    film.fill_spacing(q_new, H_new, np.empty_like(film.Hx), np.empty_like(film.Hy))
-    film.fill_spacing(q_old, H_old, np.empty_like(film.Hx), np.empty_like(film.Hy))
-    film.fill_spacing(0.5 * (q_old + q_new), film.H_mid, film.Hx_mid, film.Hy_mid)
-    ct = film.sigma / scene.numerics.dt
-    P = film.P.copy()
-    times = []
-    for _ in range(n_steps):
-        t0 = time.perf_counter()
-        kr.assemble(P, film.H_mid, film.Hx_mid, film.Hy_mid, film.dx, film.dy, film.dxc, film.dyc,
-                    film.lam, film.kn, film.c1, film.c2, R, *J, True)  # fmt: skip
-        Jcx, Jxm, Jxp, Jcy, Jym, Jyp = J
-        diag_t = ct * film.area[None] * H_new
-        main = np.ones(P.size)
-        main[interior.ravel()] = (diag_t + 0.5 * (Jcx + Jcy))[interior]
-        mat = sp.diags(
-            [main, 0.5 * Jym.ravel()[1:], 0.5 * Jyp.ravel()[:-1], 0.5 * Jxm.ravel()[ny:], 0.5 * Jxp.ravel()[:-ny]],
-            [0, -1, 1, -ny, ny],
-            format="csc",
-        )
-        rhs = np.where(interior, -(ct * film.area[None] * (P * H_new - film.P * H_old) + R), 0.0).ravel()
-        spla.spsolve(mat, rhs)
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times))
-
-
 def _timed(scene: Scene, steady: SteadyFlight, repeats: int) -> tuple[Result, float]:
-    result = simulate(scene, steady)  # warm-up: JIT, table or coefficient build
+    store = DiskStore()
+    result = simulate(scene, steady, store=store)  # warm-up: JIT, table or coefficient build
     walls = [result.work["wall_time"] - result.work["model_build_seconds"]] if repeats == 0 else []
     for _ in range(repeats):
-        result = simulate(scene, steady)
+        result = simulate(scene, steady, store=store)
         walls.append(result.work["wall_time"])
     return result, float(np.median(walls))
 
@@ -281,12 +240,10 @@ def run_bench(args: argparse.Namespace) -> int:
         ds = to_dataset(cases, reference, report)
         print(f"wrote {write_netcdf(ds, args.output)}")
         if args.figure:
-            from .figures import plot_work_precision
+            from pipeline.figures.bench import plot_work_precision
+            from pipeline.figures.common import save_figure
 
-            fig = plot_work_precision(ds)
-            Path(args.figure).parent.mkdir(parents=True, exist_ok=True)
-            fig.savefig(args.figure, dpi=130)
-            print(f"wrote {args.figure}")
+            print(f"wrote {save_figure(plot_work_precision(ds), args.figure, dpi=130)}")
     print(f"bench total {time.perf_counter() - t0:.0f} s; baseline {baseline['per_step'] * 1e3:.2f} ms/step")
     return 0
 
@@ -450,7 +407,7 @@ def to_dataset(cases: list[Case], reference: Case, report: dict) -> xr.Dataset:
             "k": ("k", np.arange(1, N_COMPARED + 1), {"long_name": "impulse number (first impulses compared)"}),
         },
     )
-    ds.attrs.update(base_attrs("hdi bench: speed against error, scene 1"))
+    ds.attrs.update(base_attrs("hdi bench: speed against error, scene 1"), scene_kind="rails", product="bench")
     ref_num = reference.numerics
     ds.attrs["reference"] = (
         f"{ref_num['nx']}x{ref_num['ny']} clustered (cluster_y {ref_num['cluster_y']}), dt {ref_num['dt']:g} s"

@@ -7,11 +7,12 @@ corner struck.  ``plot_fly``: the steady pressure over both rails.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import xarray as xr
+
+from pipeline.figures.common import pyplot, scene_values
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -19,18 +20,9 @@ if TYPE_CHECKING:
 CORNER_COLOURS = {"A": "tab:red", "B": "tab:blue", "C": "tab:orange", "D": "tab:green"}
 
 
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def plot_run(ds: xr.Dataset, title: str | None = None) -> Figure:
     """Time histories and impact spikes of one run dataset."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(4, 1, figsize=(8.0, 9.0), sharex=True, constrained_layout=True)
     t_us = ds["time"].values * 1e6
     panels = [
@@ -64,7 +56,7 @@ def plot_run(ds: xr.Dataset, title: str | None = None) -> Figure:
     ax.grid(alpha=0.3)
     if title is None:
         verdict = {1: "stable", 0: "unstable"}.get(int(ds["stable"]), "?")
-        cfg = _scene_values(ds)
+        cfg = scene_values(ds)
         title = (
             f"{ds.attrs.get('scene', '')}: mu = {cfg.get('mu', '?')}, alpha = {cfg.get('alpha', '?')}, "
             f"zdot0 = {cfg.get('zdot', '?')} m/s -- {int(ds['n_impacts'])} impacts, {verdict}"
@@ -73,19 +65,9 @@ def plot_run(ds: xr.Dataset, title: str | None = None) -> Figure:
     return fig
 
 
-def _scene_values(ds: xr.Dataset) -> dict[str, object]:
-    import tomllib
-
-    try:
-        scene = tomllib.loads(ds.attrs.get("scene_toml", ""))
-    except tomllib.TOMLDecodeError:
-        return {}
-    return {**scene.get("contact", {}), **scene.get("initial", {})}
-
-
 def plot_fly(ds: xr.Dataset) -> Figure:
     """Steady pressure over the two rails (map) and along each rail's centre line."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax_map, ax_line) = plt.subplots(
         2, 1, figsize=(8.0, 7.0), constrained_layout=True, gridspec_kw={"height_ratios": [1.3, 1]}
     )
@@ -112,16 +94,6 @@ def plot_fly(ds: xr.Dataset) -> Figure:
     ax_line.grid(alpha=0.3)
     ax_line.legend(fontsize=8, frameon=False)
     return fig
-
-
-def save_figure(fig: Figure, path: str | Path, dpi: int = 120) -> Path:
-    """Save and close a figure."""
-    plt = _pyplot()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
 
 
 CELL_COLOURS = {"stable": "#9ecae1", "unstable": "#fdae6b", "failed": "0.55", "not run": "white"}
@@ -154,7 +126,7 @@ def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Fig
 
     if overlay is not None and overlay.attrs.get("boundary_method") != "bisection":
         raise ValueError("the overlay must be a boundary-mode study (hdi run STUDY --mode boundary)")
-    plt = _pyplot()
+    plt = pyplot()
     dims = [str(d) for d in ds["stable"].dims]
     ydim = ds.attrs.get("boundary_axis", dims[1] if len(dims) > 1 else dims[0])
     xdim = next(d for d in dims if d != ydim)
@@ -216,86 +188,3 @@ def _draw_boundary(ax, x: np.ndarray, cell: xr.Dataset, colour: str, label: str)
     upper = cell["boundary_upper"].values
     ax.fill_between(x, lower, upper, color=colour, alpha=0.18, step=None, lw=0)
     ax.plot(x, 0.5 * (lower + upper), color=colour, lw=1.6, marker=".", label=label)
-
-
-def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
-    """The figure that fits a dataset written by this project."""
-    if "bouncing_3sigma" in ds and "study" in ds.attrs:
-        from .absfigures import plot_abs_study
-
-        return plot_abs_study(ds)
-    if ds.attrs.get("scene_kind") == "abs":
-        from .absfigures import plot_abs_fly, plot_abs_run
-
-        return plot_abs_run(ds) if "time" in ds.dims else plot_abs_fly(ds)
-    if "study" in ds.attrs and "stable" in ds and ds["stable"].ndim >= 2:
-        return plot_stability_map(ds, overlay)
-    if "impact_time" in ds and "time" in ds.dims:
-        return plot_run(ds)
-    if "pressure" in ds:
-        return plot_fly(ds)
-    if "family" in ds and "wall_per_run" in ds:
-        return plot_work_precision(ds)
-    raise ValueError("no figure fits this dataset (expected a run, a fly file, a study over two axes or a bench file)")
-
-
-def plot_work_precision(ds: xr.Dataset) -> Figure:
-    """Work-precision figure of ``hdi bench``: error against wall time per run, one line per family.
-
-    Left: the largest relative error of the first impulses of the contact
-    sequence against the reference; middle: the time-stepping error alone
-    (fixed and adaptive, against the smallest fixed step on the same grid);
-    right: the gimbal-height error of the flying run (no contact).
-    Air-bearing levels are single markers; the dashed line is the 1 % target,
-    the star the recommended setting.  One legend below the panels.
-    """
-    from matplotlib.ticker import NullFormatter
-
-    plt = _pyplot()
-    fig, axes = plt.subplots(1, 3, figsize=(16, 5.6), layout="constrained")
-    families = list(dict.fromkeys(ds["family"].values.tolist()))
-    markers = dict(zip(families, "osD^v<>", strict=False))
-    colours = dict(zip(families, plt.rcParams["axes.prop_cycle"].by_key()["color"], strict=False))
-    level_colours = {"quasi_static": "tab:purple", "linearized": "tab:brown"}
-    recommended = ds.attrs.get("recommended_case", "")
-    for ax, var, title in (
-        (axes[0], "max_impulse_error", "contact sequence: first 3 impulses vs reference"),
-        (axes[1], "time_error", "time stepping alone: first 3 impulses vs smallest step"),
-        (axes[2], "flying_error", "flying (no contact): gimbal height vs reference"),
-    ):
-        for fam in families:
-            sel = ds.where(ds["family"] == fam, drop=True)
-            if var == "time_error" and fam not in ("fixed step", "adaptive step"):
-                continue
-            wall = sel["wall_per_run"].values.astype(float)
-            err = sel[var].values.astype(float)
-            if var == "time_error":  # the family's own reference has no error to show
-                keep = err > 0.0
-                sel, wall, err = sel.isel(case=keep), wall[keep], err[keep]
-            err = np.maximum(err, 1e-7)
-            if fam == "air-bearing level":
-                for w, e, lab in zip(wall, err, sel["case"].values, strict=True):
-                    ax.loglog(w, e, marker="X", ms=10, ls="none", color=level_colours.get(str(lab), "k"),
-                              label=f"{lab} (built once per scene)")  # fmt: skip
-                continue
-            order = np.argsort(wall)
-            ax.loglog(wall[order], err[order], marker=markers[fam], color=colours[fam], label=fam)
-            for w, e, lab in zip(wall, err, sel["case"].values, strict=True):
-                ax.annotate(str(lab), (w, e), fontsize=6.5, xytext=(3, 3), textcoords="offset points")
-        if recommended and recommended in ds["case"].values and var != "time_error":
-            r = ds.sel(case=recommended)
-            rr = r.isel(case=0) if "case" in r.dims else r
-            ax.loglog(float(rr["wall_per_run"]), max(float(rr[var]), 1e-7), marker="*", ms=16, color="gold",
-                      mec="k", ls="none", label="recommended", zorder=5)  # fmt: skip
-        if var != "flying_error":
-            ax.axhline(0.01, color="k", ls="--", lw=0.8)
-            ax.text(ax.get_xlim()[0], 0.0105, " 1 % target", fontsize=8, va="bottom")
-        ax.xaxis.set_minor_formatter(NullFormatter())
-        ax.set_xlabel("wall time per 300-us run [s] (one core)")
-        ax.set_ylabel("relative error [-]" if var != "flying_error" else "max |z - z_ref| / max |z_ref - z_s| [-]")
-        ax.set_title(title, fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
-    handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
-    fig.suptitle(f"Scene 1 speed against error (reference {ds.attrs.get('reference', '')})", fontsize=11)
-    return fig

@@ -1,0 +1,1 @@
+"""Benchmarks: speed against error for each scene kind."""

@@ -1,0 +1,197 @@
+"""The commands behind ``hdi``: fly, simulate, plot, run, query, bench (``pipeline.cli`` parses and dispatches)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def fly_scene(scene, output: Path | None = None, plot: Path | None = None, quiet: bool = False):
+    """Steady flight of a scene of any kind: print it, write its dataset and figure; returns the dataset."""
+    from .data.netcdf import write_netcdf
+    from .figures.common import save_figure
+    from .kinds import adapter_of, plot_dataset
+
+    adapter = adapter_of(scene)
+    t0 = time.perf_counter()
+    steady = adapter.solver.fly(scene)
+    wall = time.perf_counter() - t0
+    if not quiet:
+        print("\n".join(adapter.fly_report(steady, scene, wall)))
+    ds = adapter.fly_dataset(steady, scene, wall)
+    if output:
+        print(f"wrote {write_netcdf(ds, output)}")
+    if plot:
+        print(f"wrote {save_figure(plot_dataset(ds), plot)}")
+    return ds
+
+
+def simulate_scene(scene, output: Path | None = None, plot: Path | None = None, quiet: bool = False):
+    """Fly and simulate a scene of any kind: print the run and its classification, write files; returns the dataset."""
+    from .data.netcdf import write_netcdf
+    from .figures.common import save_figure
+    from .kinds import adapter_of, plot_dataset
+
+    adapter = adapter_of(scene)
+    result = adapter.solver.simulate(scene, **adapter.run_inputs(scene))
+    ds = adapter.run_dataset(result, scene)
+    if not quiet:
+        print("\n".join(adapter.run_report(result, ds, scene)))
+    if output:
+        print(f"wrote {write_netcdf(ds, output)}")
+    if plot:
+        print(f"wrote {save_figure(plot_dataset(ds), plot)}")
+    return ds
+
+
+def cmd_fly(args: argparse.Namespace) -> int:
+    from .config import load_scene
+
+    fly_scene(load_scene(args.scene, args.overrides), args.output, args.plot)
+    return 0
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from .config import load_scene
+
+    simulate_scene(load_scene(args.scene, args.overrides), args.output, args.plot)
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from pipeline.data.netcdf import open_result
+    from pipeline.figures.common import save_figure
+    from pipeline.kinds import plot_dataset
+
+    ds = open_result(args.file)
+    overlay = open_result(args.overlay) if args.overlay else None
+    print(f"wrote {save_figure(plot_dataset(ds, overlay), args.output)}")
+    return 0
+
+
+# Cost model for --dry-run when the ledger has no finished run of the study yet: film-step cost
+# per node and step measured by `hdi bench` on this machine (0.25-0.38 ms per step at 2 x 201 x 21 nodes).
+SECONDS_PER_NODE_STEP = 4.0e-8
+
+
+def _estimate(study, ledger, todo: int, workers: int) -> str:
+    import statistics
+
+    walls = []
+    if study.mode == "multifidelity":
+        from pipeline.study.multifidelity import cheap_study
+
+        study = cheap_study(study)
+    for case in study.cases()[:50] if study.mode == "grid" else []:
+        record = ledger.finished(case.run_id)
+        if record is not None and record.get("wall_time") == record.get("wall_time"):
+            walls.append(record["wall_time"])
+    if walls:
+        per_run, basis = statistics.median(walls), f"median of {len(walls)} finished runs in the ledger"
+    else:
+        num = study.case((0,) * len(study.axes)).scene.numerics
+        nodes = 2 * num.nx * num.ny
+        per_run = num.t_end / num.dt * nodes * SECONDS_PER_NODE_STEP
+        basis = f"model: {nodes} nodes x {num.t_end / num.dt:.0f} steps x {SECONDS_PER_NODE_STEP:g} s"
+    total = todo * per_run
+    return (
+        f"~{per_run:.2f} s per run ({basis}); {todo} runs ~ {total:.0f} core-s, "
+        f"~{total / max(workers, 1) / 60:.1f} min on {workers} workers"
+    )
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    import os
+
+    from pipeline.run.fanout import default_ledger, default_output, run_study
+    from pipeline.run.ledger import Ledger
+    from pipeline.study.spec import lattice, load_study
+
+    study = load_study(args.study, args.overrides, mode=args.mode)
+    output = args.output or default_output(study)
+    ledger_dir = args.ledger or default_ledger(study, output)
+    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
+    cases = study.cases() if study.mode == "grid" else []
+    if args.dry_run:
+        ledger = Ledger(ledger_dir)
+        print(f"study {study.name} ({study.path}), mode {study.mode}")
+        print("  axes: " + ", ".join(f"{a.dim} ({a.key}) x {len(a.values)}" for a in study.axes))
+        if study.mode == "grid":
+            done = sum(ledger.finished(c.run_id) is not None for c in cases)
+            print(f"  runs: {len(cases)}, already done: {done} (ledger {ledger.folder}), to run: {len(cases) - done}")
+            todo = len(cases) - done
+        elif study.mode == "multifidelity":
+            from pipeline.study.multifidelity import cheap_study
+
+            cheap = cheap_study(study).cases()
+            done = sum(ledger.finished(c.run_id) is not None for c in cheap)
+            print(f"  cheap pass ({study.multifidelity}): {len(cheap)} runs, {done} done; then the full scene on the "
+                  "cells next to the class boundary")  # fmt: skip
+            todo = len(cheap) - done
+        else:
+            n = len(lattice(study))
+            lines = study.size // len(study.axis(study.boundary.axis).values)
+            cold = 2 + int(np.ceil(np.log2(max(n - 1, 1))))
+            print(f"  lines: {lines}, lattice of {n} values; at most {cold} runs per line, ~3 per continued line")
+            todo = cold + 3 * (lines - 1)
+        print("  estimate: " + _estimate(study, ledger, todo, workers))
+        print(f"  output: {output}")
+        return 0
+    print(f"study {study.name}: mode {study.mode}, " + " x ".join(f"{len(a.values)} {a.dim}" for a in study.axes)
+          + (f" = {len(cases)} runs" if cases else ""), flush=True)  # fmt: skip
+    out = run_study(
+        study,
+        output,
+        ledger_dir=ledger_dir,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        quiet=args.quiet,
+    )
+    ds = out.dataset
+    print(
+        f"\nstudy {study.name} finished: {out.computed} runs computed, {out.reused} taken from the ledger, "
+        f"{out.failed} failed; wall time {out.wall_time:.1f} s (run time {out.run_time:.1f} core-s)"
+    )
+    if "boundary_lower" in ds:
+        print_boundary(ds)
+    if "refined" in ds:
+        print(
+            f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with the full "
+            f"scene (waves {ds.attrs['refinement_waves']}); {ds.attrs['cells_changed']} changed class"
+        )
+    print(f"wrote {output}")
+    if not args.no_plot:
+        from pipeline.figures.common import save_figure
+        from pipeline.kinds import plot_dataset
+
+        png = args.plot or Path(output).with_suffix(".png")
+        print(f"wrote {save_figure(plot_dataset(ds), png)}")
+    return 0
+
+
+def print_boundary(ds) -> None:
+    from pipeline.data.query import boundary_table
+
+    print(f"boundary on {ds.attrs['boundary_axis']} ({ds.attrs['boundary_method']}), "
+          f"stable {ds.attrs['boundary_stable_side']}:")  # fmt: skip
+    print(boundary_table(ds))
+
+
+def cmd_query(args: argparse.Namespace) -> int:
+    from pipeline.data.query import query
+
+    print(query(args.file, args.where, args.var))
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from .config import load_scene
+    from .kinds import adapter_of
+
+    adapter = adapter_of(load_scene(args.scene))
+    if adapter.bench is None:
+        raise ValueError(f"{args.scene}: scene kind {adapter.name!r} has no benchmark")
+    return adapter.bench(args)

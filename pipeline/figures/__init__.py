@@ -1,0 +1,1 @@
+"""Figures: functions of datasets, one module per kind plus the common dispatch and the bench figure."""

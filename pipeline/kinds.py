@@ -1,0 +1,163 @@
+"""One :class:`Adapter` per scene kind: everything about a kind that is records, datasets, text or figures.
+
+This is the one pipeline module that names the kinds; every other module looks a kind's adapter up (by a
+scene, a scene dict or a dataset's ``scene_kind`` attribute) instead of branching on it.  The solver's side of a
+kind (parameters, fly, simulate, warm-up) is :class:`solver.kind.SceneKind` in :mod:`solver.kinds`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import xarray as xr
+
+from solver.kinds import DEFAULT_KIND, get_kind
+
+from .classify import Output
+
+
+@dataclass(frozen=True)
+class Adapter:
+    """The pipeline's side of a scene kind.
+
+    ``record(scene, result, impacts_kept)`` is the run classifier: the JSON-ready fields a run returns to a
+    study.  ``outputs`` declares every scalar of such a record once (units, long name, dtype and fill in a study
+    dataset); ``study_outputs`` are kept by default, ``required_outputs`` always.  ``class_flag`` names the
+    two-valued class a boundary or multi-fidelity study traces (None: those modes are refused).
+    ``run_inputs(scene)`` reads what a run needs from files (the solver reads none).
+    """
+
+    name: str
+    record: Callable[[Any, Any, int], dict[str, Any]]
+    outputs: Mapping[str, Output]
+    study_outputs: tuple[str, ...]
+    required_outputs: tuple[str, ...]
+    impacts_kept: int
+    class_flag: str | None
+    run_inputs: Callable[[Any], dict[str, Any]]
+    fly_dataset: Callable[[Any, Any, float], xr.Dataset]
+    run_dataset: Callable[[Any, Any], xr.Dataset]
+    fly_report: Callable[[Any, Any, float], list[str]]
+    run_report: Callable[[Any, xr.Dataset, Any], list[str]]
+    progress: Callable[[dict[str, Any]], str]
+    figures: Mapping[str, Callable[..., Any]]
+    bench: Callable[[Any], int] | None
+    series_kept: Mapping[str, tuple[str, str]]
+
+    @property
+    def solver(self):
+        """The solver's :class:`solver.kind.SceneKind` of this kind."""
+        return get_kind(self.name)
+
+
+def _table_store(scene: Any) -> dict[str, Any]:
+    """The reduced air-bearing levels' tables, kept on disk for every later process (the solver writes no files)."""
+    from .run.cache import DiskStore
+
+    return {"store": DiskStore()}
+
+
+def _track_profile(scene: Any) -> dict[str, Any]:
+    """The measured track profile of an "abs" scene, read here (the solver reads no files); none: synthetic."""
+    if not scene.disk.profile_file:
+        return {}
+    from .data.profiles import read_profile
+
+    return {"profile": read_profile(scene.disk.profile_file)}
+
+
+def _adapters() -> dict[str, Adapter]:
+    from solver.abs.integrate import SERIES as ABS_SERIES
+
+    from . import reports
+    from .bench import abs as bench_abs
+    from .bench import rails as bench_rails
+    from .classify import ABS_OUTPUTS, ABS_SERIES_KEPT, RAILS_OUTPUTS, abs_record, rails_record
+    from .data import abs as data_abs
+    from .data import rails as data_rails
+    from .figures import abs as figures_abs
+    from .figures import rails as figures_rails
+    from .figures.bench import plot_work_precision
+
+    rails = Adapter(
+        name="rails",
+        record=rails_record,
+        outputs=RAILS_OUTPUTS,
+        study_outputs=tuple(RAILS_OUTPUTS),
+        required_outputs=("stable", "status"),
+        impacts_kept=20,
+        class_flag="stable",
+        run_inputs=_table_store,
+        fly_dataset=data_rails.fly_dataset,
+        run_dataset=data_rails.run_dataset,
+        fly_report=reports.rails_fly,
+        run_report=reports.rails_run,
+        progress=reports.rails_progress,
+        figures={
+            "fly": figures_rails.plot_fly,
+            "run": figures_rails.plot_run,
+            "study": figures_rails.plot_stability_map,
+            "bench": plot_work_precision,
+        },  # fmt: skip
+        bench=bench_rails.run_bench,
+        series_kept={},
+    )
+    abs_ = Adapter(
+        name="abs",
+        record=abs_record,
+        outputs=ABS_OUTPUTS,
+        study_outputs=tuple(ABS_OUTPUTS),
+        required_outputs=("status",),
+        impacts_kept=0,
+        class_flag=None,
+        run_inputs=_track_profile,
+        fly_dataset=lambda steady, scene, wall_time: data_abs.fly_dataset(steady, scene),
+        run_dataset=data_abs.run_dataset,
+        fly_report=reports.abs_fly,
+        run_report=reports.abs_run,
+        progress=reports.abs_progress,
+        figures={"fly": figures_abs.plot_fly, "run": figures_abs.plot_run, "study": figures_abs.plot_study},
+        bench=bench_abs.run_bench,
+        series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
+    )
+    return {a.name: a for a in (rails, abs_)}
+
+
+def adapters() -> dict[str, Adapter]:
+    """Every kind's adapter by name (imported on first use)."""
+    return _adapters()
+
+
+def adapter_of(thing: Any) -> Adapter:
+    """The adapter of a scene, a scene dict, a kind name or a dataset written by this project."""
+    if isinstance(thing, xr.Dataset):
+        if "scene_kind" not in thing.attrs:
+            raise ValueError("this file has no scene_kind attribute: it was not written by this version of hdi "
+                             "(regenerate it)")  # fmt: skip
+        name = thing.attrs["scene_kind"]
+    elif isinstance(thing, str):
+        name = thing
+    elif isinstance(thing, dict):
+        name = thing.get("kind", DEFAULT_KIND)
+    else:
+        name = thing.kind
+    get_kind(name)  # an unknown kind is an error that lists the kinds
+    return adapters()[name]
+
+
+def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Any:
+    """The figure of a file written by this project: looked up by its ``scene_kind`` and ``product`` attributes.
+
+    ``overlay`` (a boundary study of the same axes) is drawn over a study of a kind with a class flag.
+    """
+    adapter = adapter_of(ds)
+    product = ds.attrs.get("product", "")
+    figure = adapter.figures.get(product)
+    if figure is None:
+        raise ValueError(
+            f"no figure for a {product or 'file without a product attribute'} of kind {adapter.name!r} "
+            f"(figures of this kind: {', '.join(adapter.figures) or 'none'})"
+        )
+    return figure(ds) if overlay is None else figure(ds, overlay)

@@ -1,0 +1,105 @@
+"""``hdi reproduce``: the main job, every canonical file in results/."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from .commands import fly_scene, print_boundary, simulate_scene
+from .config import DEFAULT_SCENE, load_scene
+
+FIG17_STUDY = Path(__file__).resolve().parent.parent / "studies" / "fig17.toml"
+
+
+CONVERGENCE_STUDY = FIG17_STUDY.with_name("convergence.toml")
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    """The main job, into results/: scene-1 flight, the source's two contact runs, Figure 17, convergence, bench.
+
+    Figure 17 runs as the full grid and as a traced boundary, each with its own
+    ledger so that both report their real cost; running reproduce again resumes
+    (or reuses) both from their ledgers.
+    """
+    from pipeline.figures.common import save_figure
+    from pipeline.kinds import plot_dataset
+    from pipeline.run.fanout import run_study
+    from pipeline.study.spec import load_study
+
+    out = Path(args.results)
+    t0 = time.perf_counter()
+    fly_scene(load_scene(DEFAULT_SCENE), out / "benson1989_fly.nc", out / "benson1989_fly.png")
+    for alpha in ("0.80", "0.85"):
+        scene = load_scene(DEFAULT_SCENE, [f"contact.alpha={alpha}", "contact.mu=0.5"])
+        tag = alpha.replace(".", "")
+        print()
+        simulate_scene(scene, out / f"benson1989_mu05_alpha{tag}.nc", out / f"benson1989_mu05_alpha{tag}.png")
+    if not args.skip_studies:
+        outcomes = {}
+        for mode in ("grid", "boundary"):
+            study = load_study(FIG17_STUDY, mode=mode)
+            name = "fig17" if mode == "grid" else "fig17_boundary"
+            print(f"\nstudy {name}: {study.size if mode == 'grid' else 'bisection of'} runs on {args.workers or 'all'} "
+                  "local workers", flush=True)  # fmt: skip
+            outcomes[mode] = run_study(
+                study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers, quiet=args.quiet
+            )
+            o = outcomes[mode]
+            print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+                  f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+            print_boundary(o.dataset)
+        fig = plot_dataset(outcomes["grid"].dataset, outcomes["boundary"].dataset)
+        print(f"wrote {save_figure(fig, out / 'fig17.png')}")
+        for path, mode, name in ((FIG17_STUDY, "multifidelity", "fig17_multifidelity"),
+                                 (CONVERGENCE_STUDY, "grid", "convergence")):  # fmt: skip
+            study = load_study(path, mode=mode)
+            print(f"\nstudy {name} ({mode})", flush=True)
+            o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers,
+                          quiet=args.quiet)  # fmt: skip
+            print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+                  f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+            if "refined" in o.dataset:
+                ds = o.dataset
+                print(f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with "
+                      f"the full scene; {ds.attrs['cells_changed']} changed class")  # fmt: skip
+            print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
+    if not args.skip_scene2:
+        _reproduce_scene2(args, out)
+    if not args.skip_bench:
+        from pipeline.bench.rails import run_bench
+
+        print("\nbenchmark: speed against error", flush=True)
+        run_bench(argparse.Namespace(scene=str(DEFAULT_SCENE), quick=False, repeats=3,
+                                     output=out / "bench_scene1.nc", figure=out / "work_precision.png"))  # fmt: skip
+    print(f"\nreproduce finished in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
+
+
+SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction")
+
+
+def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
+    """Scene 2: steady flight, one default 1-ms run, the four Table-I studies."""
+    from pipeline.figures.common import save_figure
+    from pipeline.kinds import plot_dataset
+    from pipeline.run.fanout import run_study
+    from pipeline.study.spec import load_study
+
+    print("\nscene 2: partial-contact femto slider", flush=True)
+    fly_scene(load_scene(SCENE2), out / "chen_bogy2007_fly.nc", out / "chen_bogy2007_fly.png")
+    print()
+    simulate_scene(load_scene(SCENE2), out / "chen_bogy2007_run.nc", out / "chen_bogy2007_run.png")
+    if args.skip_studies:
+        return
+    for name in SCENE2_STUDIES:
+        study = load_study(SCENE2.parent.parent / f"{name}.toml")
+        print(f"\nstudy {name}: {study.size} runs", flush=True)
+        o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers,
+                      quiet=args.quiet)  # fmt: skip
+        print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+              f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+        print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")

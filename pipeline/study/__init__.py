@@ -1,0 +1,1 @@
+"""Studies: study files and their cases, boundary bisection, multi-fidelity planning."""
