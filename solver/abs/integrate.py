@@ -64,7 +64,7 @@ from solver.abs.dynamics import mass_matrix, static_forces, stiffness_damping
 from solver.abs.film import AbsFilm
 from solver.abs.forces import SurfaceForces, SurfaceModel
 from solver.abs.params import AbsScene
-from solver.abs.steady import AbsSteady, element_row, element_spacing, fly_start
+from solver.abs.steady import MIN_FORCE_SCALE, AbsSteady, element_row, element_spacing, fly_start
 from solver.abs.track import Track
 
 log = logging.getLogger(__name__)
@@ -72,8 +72,6 @@ log = logging.getLogger(__name__)
 
 #: A step whose Newton solve fails is halved at most this many times (dt / 256).
 MAX_HALVINGS = 8
-#: Force scale of the Newton tolerance when the preload is zero [N].
-MIN_FORCE_SCALE = 1e-6
 #: Cells within the surface forces' reach plus this [m] (and the step's predicted motion) are a step's
 #: candidates: the only cells its Newton iterations evaluate.
 CANDIDATE_MARGIN = 2.0e-9
