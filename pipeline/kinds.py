@@ -69,7 +69,7 @@ def _track_profile(scene: Any) -> dict[str, Any]:
 
 
 def _adapters() -> dict[str, Adapter]:
-    from solver.abs.integrate import SERIES as ABS_SERIES
+    from solver.abs.params import SERIES as ABS_SERIES
 
     from . import reports
     from .bench import abs as bench_abs

@@ -44,8 +44,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels.slip import SLIP_NAMES, fk_flow_rate_array, flow_factor_array
-
 
 @dataclass(frozen=True)
 class SlipLaw:
@@ -57,12 +55,14 @@ class SlipLaw:
     coefficients: tuple[float, float] | None
 
 
-#: The slip laws by name: the one registry (each kind's parameters offer the laws its film can run).
+#: The slip laws by name: the one registry (each kind's parameters offer the laws its film can run). The codes
+#: are the kernels' (:data:`solver.kernels.slip.SLIP_NAMES`, checked by a test); the kernels are imported only
+#: where an array is evaluated, so that reading parameters does not load numba.
 SLIP_LAWS: dict[str, SlipLaw] = {
-    "continuum": SlipLaw(SLIP_NAMES.index("continuum"), (0.0, 0.0)),
-    "first_order": SlipLaw(SLIP_NAMES.index("first_order"), (6.0, 0.0)),
-    "second_order": SlipLaw(SLIP_NAMES.index("second_order"), (6.0, 6.0)),
-    "fukui_kaneko": SlipLaw(SLIP_NAMES.index("fukui_kaneko"), None),
+    "continuum": SlipLaw(0, (0.0, 0.0)),
+    "first_order": SlipLaw(1, (6.0, 0.0)),
+    "second_order": SlipLaw(2, (6.0, 6.0)),
+    "fukui_kaneko": SlipLaw(3, None),
 }
 #: Names of the laws with a polynomial flow factor.
 POLYNOMIAL_SLIP_LAWS = tuple(name for name, law in SLIP_LAWS.items() if law.coefficients is not None)
@@ -104,6 +104,8 @@ def poiseuille_flow_rate(
     flat = np.ascontiguousarray(D).ravel()
     Q = np.empty_like(flat)
     dQ = np.empty_like(flat)
+    from .kernels.slip import fk_flow_rate_array
+
     fk_flow_rate_array(flat, Q, dQ)
     if with_derivative:
         return Q.reshape(D.shape), dQ.reshape(D.shape)
@@ -150,6 +152,8 @@ def flow_factor(
     H = np.ascontiguousarray(h_b).ravel() / _H_REF
     phi = np.empty_like(P)
     dphi_dP = np.empty_like(P)
+    from .kernels.slip import flow_factor_array
+
     flow_factor_array(code, P, H, mean_free_path / _H_REF, _H_REF, h_switch, phi, dphi_dP)
     if with_derivative:
         return phi.reshape(p_b.shape), (dphi_dP / p0).reshape(p_b.shape)

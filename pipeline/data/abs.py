@@ -9,8 +9,8 @@ import xarray as xr
 
 from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, STATUS_FLAGS
 from pipeline.data.netcdf import product_attrs, var
-from solver.abs.integrate import SERIES, AbsResult, spectrum, summarize
-from solver.abs.params import AbsScene
+from solver.abs.integrate import AbsResult, spectrum, summarize
+from solver.abs.params import SERIES, AbsScene
 from solver.abs.steady import AbsSteady
 
 

@@ -10,8 +10,8 @@ import xarray as xr
 from pipeline.classify import RAILS_OUTPUTS, STABLE_FLAGS, STATUS_FLAGS, classify_impulses
 from pipeline.data.netcdf import product_attrs, var
 from solver.rails.geometry import CORNERS
-from solver.rails.integrate import SERIES, Result
-from solver.rails.params import Scene
+from solver.rails.integrate import Result
+from solver.rails.params import SERIES, Scene
 from solver.rails.steady import SteadyFlight
 
 

@@ -81,23 +81,30 @@ class GridPlanner:
 
 
 class WarmUp(WorkerPlugin):
-    """Worker plugin: one thread for numba and the kernels loaded before the first run."""
+    """Worker plugin: one thread for numba and the kernels of ``kinds`` (None: every kind) loaded before the
+    first run."""
 
     name = "hdi-warm-up"
 
+    def __init__(self, kinds: tuple[str, ...] | None = None) -> None:
+        self.kinds = kinds
+
     def setup(self, worker) -> None:
         os.environ.update(WORKER_ENV)
-        seconds = warm_up()
+        seconds = warm_up(self.kinds)
         log.info("worker %s warmed up in %.2f s", getattr(worker, "address", "?"), seconds)
 
 
 @contextlib.contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
-    """A client on ``scheduler`` (tcp://host:port), or on an embedded LocalCluster of worker processes."""
+def dask_client(
+    workers: int | None = None, scheduler: str | None = None, kinds: tuple[str, ...] | None = None
+) -> Iterator[Any]:
+    """A client on ``scheduler`` (tcp://host:port), or on an embedded LocalCluster of worker processes whose
+    workers load the kernels of ``kinds`` (None: every kind) before their first run."""
     import dask
     from distributed import Client, LocalCluster
 
-    plugin = WarmUp()
+    plugin = WarmUp(kinds)
     if scheduler:
         client = Client(scheduler, timeout="30s")
         try:
@@ -337,7 +344,7 @@ def run_study(
         def connect() -> Any:
             if client is not None:
                 return client
-            own = stack.enter_context(dask_client(workers, scheduler))
+            own = stack.enter_context(dask_client(workers, scheduler, kinds=(adapter_of(study.base).name,)))
             if not quiet:
                 n = len(own.scheduler_info().get("workers", {}))
                 print(f"dask: {scheduler or 'local cluster'}, {n} workers", flush=True)

@@ -54,12 +54,13 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
     return record
 
 
-def warm_up() -> float:
-    """Load (or compile) every numba kernel of every scene kind, one thread; returns the seconds it took."""
-    from solver.kinds import kinds
+def warm_up(names: tuple[str, ...] | None = None) -> float:
+    """Load (or compile) the numba kernels of the kinds ``names`` (None: every kind) on one thread; returns the
+    seconds it took."""
+    from solver.kinds import get_kind, kinds
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
     t0 = time.perf_counter()
-    for kind in kinds().values():
-        kind.warm_up()
+    for name in names or tuple(kinds()):
+        get_kind(name).warm_up()
     return time.perf_counter() - t0

@@ -63,7 +63,7 @@ import numpy as np
 from solver.abs.dynamics import mass_matrix, static_forces, stiffness_damping
 from solver.abs.film import AbsFilm
 from solver.abs.forces import SurfaceForces, SurfaceModel
-from solver.abs.params import AbsScene
+from solver.abs.params import SERIES, AbsScene
 from solver.abs.steady import MIN_FORCE_SCALE, AbsSteady, element_row, element_spacing, fly_start
 from solver.abs.track import Track
 
@@ -99,17 +99,6 @@ class AbsResult:
     status: int
     message: str
     work: dict[str, float] = field(default_factory=dict)
-
-
-SERIES = {
-    "flying_height": ("m", "flying height at the read/write element above the disk mean plane"),
-    "clearance": ("m", "smallest spacing of the face to the resolved disk surface"),
-    "contact_force": ("N", "normal contact force"),
-    "adhesion_force": ("N", "adhesion force (negative: towards the disk)"),
-    "friction_force": ("N", "friction force along the disk motion"),
-    "air_force": ("N", "air-bearing force"),
-    "contact_cells": ("1", "cells within reach of the surface forces"),
-}
 
 
 class AbsStepper:

@@ -5,9 +5,7 @@ from __future__ import annotations
 import os
 
 from ..kind import SceneKind
-from .integrate import SERIES, simulate_abs
-from .params import ABS_SECTIONS, AbsScene
-from .steady import fly_abs, fly_start
+from .params import ABS_SECTIONS, SERIES, AbsScene
 
 #: Keys a run may change and still reuse a steady flight (the steady flight sees the roughness only through
 #: its RMS, so the track's realisation and correlation are free).
@@ -29,6 +27,27 @@ WARM_UP_REGIONS = (
     {"name": "trailing step", "depth": 0.15e-6, "rect": [0.70e-3, 0.80e-3, -0.13e-3, 0.13e-3]},
     {"name": "trailing pad", "depth": 0.0, "rect": [0.745e-3, 0.845e-3, -0.05e-3, 0.05e-3]},
 )
+
+
+def fly_abs(scene: AbsScene, **kwargs):
+    """Steady flight (:func:`solver.abs.steady.fly_abs`): an error where there is none."""
+    from .steady import fly_abs
+
+    return fly_abs(scene, **kwargs)
+
+
+def fly_start(scene: AbsScene, **kwargs):
+    """The steady flight a run starts from (:func:`solver.abs.steady.fly_start`)."""
+    from .steady import fly_start
+
+    return fly_start(scene, **kwargs)
+
+
+def simulate_abs(scene: AbsScene, steady=None, **inputs):
+    """One run over the moving track (:func:`solver.abs.integrate.simulate_abs`)."""
+    from .integrate import simulate_abs
+
+    return simulate_abs(scene, steady, **inputs)
 
 
 def tiny() -> AbsScene:

@@ -423,3 +423,14 @@ class AbsScene:
                 if key != "regions":
                     out[f"{name}.{key}"] = value
         return out
+
+
+SERIES = {
+    "flying_height": ("m", "flying height at the read/write element above the disk mean plane"),
+    "clearance": ("m", "smallest spacing of the face to the resolved disk surface"),
+    "contact_force": ("N", "normal contact force"),
+    "adhesion_force": ("N", "adhesion force (negative: towards the disk)"),
+    "friction_force": ("N", "friction force along the disk motion"),
+    "air_force": ("N", "air-bearing force"),
+    "contact_cells": ("1", "cells within reach of the surface forces"),
+}

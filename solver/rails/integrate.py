@@ -83,26 +83,12 @@ class Result:
 
     @property
     def series(self) -> dict[str, np.ndarray]:
-        """The time series of :data:`SERIES` by name."""
+        """The time series of :data:`solver.rails.params.SERIES` by name."""
         return {
             "z": self.q[:, 0], "pitch": self.q[:, 1], "roll": self.q[:, 2],
             "zdot": self.v[:, 0], "pitch_rate": self.v[:, 1], "roll_rate": self.v[:, 2],
             "min_spacing": self.min_spacing, "corner_spacing": self.corner_spacing, "air_load": self.air_force[:, 0],
         }  # fmt: skip
-
-
-#: Time series of a run: name -> (units, long_name); corner_spacing has a second dimension, the corner.
-SERIES = {
-    "z": ("m", "gimbal height above the asperity base plane"),
-    "pitch": ("rad", "pitch (positive: leading edge up)"),
-    "roll": ("rad", "roll (positive: x2 < 0 side up)"),
-    "zdot": ("m s-1", "vertical velocity of the gimbal"),
-    "pitch_rate": ("rad s-1", "pitch rate"),
-    "roll_rate": ("rad s-1", "roll rate"),
-    "min_spacing": ("m", "minimum spacing (lowest flat corner)"),
-    "corner_spacing": ("m", "spacing at the flat corners"),
-    "air_load": ("N", "air-bearing load Q"),
-}
 
 
 def simulate(scene: Scene, steady: SteadyFlight | None = None, store: ArrayStore | None = None) -> Result:

@@ -7,9 +7,7 @@ import os
 import numpy as np
 
 from ..kind import SceneKind
-from .integrate import SERIES, simulate
-from .params import SECTIONS, Scene
-from .steady import fly
+from .params import SECTIONS, SERIES, Scene
 
 #: Keys a run may change and still reuse a steady flight: the disturbance, the contact law and the stepping.
 STEADY_FREE = {
@@ -20,6 +18,20 @@ STEADY_FREE = {
 
 #: The tiny scene that loads every kernel a run uses (warm-up): 21 x 5 nodes, three steps.
 WARM_UP_NUMERICS = {"nx": 21, "nx_taper": 5, "ny": 5, "dt": 1e-7, "t_end": 3e-7, "output_interval": 1e-7}
+
+
+def fly(scene: Scene, **kwargs):
+    """Steady flight (:func:`solver.rails.steady.fly`)."""
+    from .steady import fly
+
+    return fly(scene, **kwargs)
+
+
+def simulate(scene: Scene, steady=None, **inputs):
+    """One run from steady flight (:func:`solver.rails.integrate.simulate`)."""
+    from .integrate import simulate
+
+    return simulate(scene, steady, **inputs)
 
 
 def tiny() -> Scene:

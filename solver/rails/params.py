@@ -300,3 +300,17 @@ class Scene:
             for key, value in getattr(self, name).to_dict().items():
                 out[f"{name}.{key}"] = value
         return out
+
+
+#: Time series of a run: name -> (units, long_name); corner_spacing has a second dimension, the corner.
+SERIES = {
+    "z": ("m", "gimbal height above the asperity base plane"),
+    "pitch": ("rad", "pitch (positive: leading edge up)"),
+    "roll": ("rad", "roll (positive: x2 < 0 side up)"),
+    "zdot": ("m s-1", "vertical velocity of the gimbal"),
+    "pitch_rate": ("rad s-1", "pitch rate"),
+    "roll_rate": ("rad s-1", "roll rate"),
+    "min_spacing": ("m", "minimum spacing (lowest flat corner)"),
+    "corner_spacing": ("m", "spacing at the flat corners"),
+    "air_load": ("N", "air-bearing load Q"),
+}
