@@ -2,7 +2,7 @@
 
 THE command to regenerate, from the repository root, after a change of results that is meant::
 
-    /work/venv/bin/python tests/make_reference.py
+    python tests/make_reference.py
 
 (``python tests/make_reference.py NAME ...`` regenerates only the named files, e.g. ``abs_run.nc``.)
 Then review what changed (``hdi query``, or the failure messages of the test before regenerating)

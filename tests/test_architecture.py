@@ -2,7 +2,7 @@
 
 Every ``import`` statement of every ``.py`` file under ``solver/`` and ``pipeline/`` counts, at module level or
 inside a function (a lazy import is still a dependency); relative imports are resolved against the importing
-module.  The rules (/work/shared/STYLE.md, "The shape"):
+module.  The rules (the project's STYLE.md, "The shape"):
 
 * the solver imports no dask, distributed, xarray, matplotlib, netCDF4 and nothing of :mod:`pipeline`;
 * the pipeline imports no numba and nothing of :mod:`solver.kernels`;
