@@ -17,7 +17,9 @@ class SceneKind:
 
     ``fly(scene)`` returns the steady flight; ``start(scene)`` the steady flight a run starts from (the same,
     or a documented fallback); ``simulate(scene, steady=None, **inputs)`` a flat result with ``t``, states,
-    ``status``, ``message`` and ``work``.  ``tiny()`` is the cheapest scene of the kind that flies and runs (the
+    ``status``, ``message`` and ``work``.  ``seed_key`` names the parameter that seeds the scene's
+    stochastic input (None: the kind is deterministic), so a study can run realisations of it.  ``tiny()`` is the
+    cheapest scene of the kind that flies and runs (the
     kernels' warm-up, and the registry's tests).  ``steady_free`` names the keys a run may change and still reuse a
     steady flight: a section mapped to None is free as a whole, otherwise the listed keys of it are.
     """
@@ -32,6 +34,7 @@ class SceneKind:
     steady_free: Mapping[str, tuple[str, ...] | None]
     series: Mapping[str, tuple[str, str]]
     tiny: Callable[[], Any]
+    seed_key: str | None
     warm_up: Callable[[], None]
 
     def steady_key(self, scene_dict: dict[str, Any]) -> str:

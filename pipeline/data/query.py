@@ -13,11 +13,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import xarray as xr
 
 from pipeline.config import ConfigError, parse_override
 from pipeline.data.netcdf import open_result
 from pipeline.kinds import adapter_of
+from pipeline.study.spec import REALIZATION
 
 
 class QueryError(ConfigError):
@@ -60,9 +62,27 @@ def table(ds: xr.Dataset, where: list[str], variables: list[str] | None = None) 
     for name in names:
         if name not in ds.data_vars:
             raise QueryError(f"--var {name}: no such variable (variables: {', '.join(map(str, ds.data_vars))})")
+    stats = [n for n in names if f"{n}_mean" in cells]
+    if REALIZATION in cells.dims and stats:
+        return _mean_table(cells, stats)
     frame = cells[names].to_dataframe()
     frame = frame[[n for n in names if n in frame.columns]]
     return frame.to_string()
+
+
+def _mean_table(cells: xr.Dataset, names: list[str]) -> str:
+    """One row per cell of the other axes: each variable as mean +- 95 % half-width over the realisations."""
+    n = cells.sizes[REALIZATION]
+    columns = {}
+    for name in names:
+        mean = cells[f"{name}_mean"].to_series()
+        half = cells[f"{name}_ci95"].to_series()
+        columns[f"{name} [{cells[name].attrs.get('units', '')}]"] = [
+            f"{m:.4g} +- {h:.2g}" for m, h in zip(mean.values, half.values, strict=True)
+        ]
+        index = mean.index
+    frame = pd.DataFrame(columns, index=index)
+    return f"mean +- half-width of the 95 % confidence interval over {n} realisations\n" + frame.to_string()
 
 
 def query(path: str | Path, where: list[str], variables: list[str] | None = None) -> str:

@@ -27,7 +27,7 @@ from pipeline.classify import NOT_RUN
 from pipeline.data.netcdf import var
 from pipeline.kinds import adapter_of
 from pipeline.provenance import base_attrs
-from pipeline.study.spec import Axis, Case, Study, study_attrs
+from pipeline.study.spec import REALIZATION, Axis, Case, Study, study_attrs
 
 
 def _coord(axis: Axis, values: tuple[Any, ...]) -> tuple[str, np.ndarray, dict[str, str]]:
@@ -102,6 +102,8 @@ def study_dataset(
     ds.attrs.update(base_attrs(study.title))
     ds.attrs.update(study_attrs(study))
     ds.attrs.update(scene_kind=adapter.name, product="study")
+    if REALIZATION in ds.dims and ds.sizes[REALIZATION] > 1:
+        ds = ds.merge(realization_statistics(ds, [n for n in study.variables if outputs[n].dtype is np.float64]))
     ds.attrs["runs"] = ran
     ds.attrs["failed_runs"] = int(np.count_nonzero(arrays["status"] == -1))
     if study.boundary is not None:
@@ -182,3 +184,33 @@ def _add_bisection(ds: xr.Dataset, study: Study, lines: list[dict[str, Any]]) ->
         flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="several_crossings single_crossing",
     )  # fmt: skip
     ds.attrs["boundary_tolerance"] = study.boundary.tolerance
+
+
+#: Confidence level of the intervals of the mean over realisations.
+CONFIDENCE = 0.95
+
+
+def realization_statistics(ds: xr.Dataset, names: list[str]) -> xr.Dataset:
+    """Mean over the realisations of each cell and the half-width of its 95 % confidence interval.
+
+    The half-width is t_{0.975, n-1} s / sqrt(n), with s the sample standard deviation of the n finite values
+    (Student's t: the realisations are independent samples of the same run); NaN where fewer than two values
+    are finite.  Variables ``<name>_mean`` and ``<name>_ci95``, on the study's other dimensions.
+    """
+    from scipy.stats import t as student
+
+    out = {}
+    for name in names:
+        values = ds[name]
+        n = values.count(REALIZATION)
+        mean = values.mean(REALIZATION, skipna=True)
+        sd = values.std(REALIZATION, ddof=1, skipna=True)
+        factor = xr.apply_ufunc(lambda k: np.where(k > 1, student.ppf(0.5 + CONFIDENCE / 2, np.maximum(k - 1, 1)),
+                                                   np.nan), n)  # fmt: skip
+        half = factor * sd / np.sqrt(n.where(n > 0))
+        units, long_name = values.attrs.get("units", ""), values.attrs.get("long_name", name)
+        out[f"{name}_mean"] = mean.assign_attrs(units=units, long_name=f"mean over realisations of: {long_name}")
+        out[f"{name}_ci95"] = half.assign_attrs(
+            units=units, long_name=f"half-width of the 95 % confidence interval of the mean of: {long_name}"
+        )
+    return xr.Dataset(out)

@@ -64,8 +64,11 @@ def plot_run(ds: xr.Dataset) -> Figure:
 def plot_study(ds: xr.Dataset) -> Figure:
     """3-sigma bouncing and mean contact force against the first axis, one line per value of the others."""
     plt = pyplot()
-    dims = [d for d in ds["status"].dims]
+    dims = [d for d in ds["status"].dims if d != "realization"]
     first, rest = dims[0], dims[1:]
+    n_real = ds.sizes.get("realization", 1)
+    if n_real > 1:  # each cell's mean over the realisations, with its 95 % confidence interval as error bar
+        ds = ds.assign({name: ds[f"{name}_mean"] for name in ("bouncing_3sigma", "mean_contact_force")})
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
     x = ds[first].values
     scale_x, xunit = _scale(ds[first])
@@ -75,7 +78,8 @@ def plot_study(ds: xr.Dataset) -> Figure:
         label = ", ".join(f"{d} = {float(cell[d]):g} {ds[d].attrs.get('units', '')}" for d in rest) or None
         for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
             y = cell[name].values * scale
-            (line,) = ax.plot(x * scale_x, y, "o-", label=label, lw=1.2)
+            half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
+            (line, *_) = ax.errorbar(x * scale_x, y, yerr=half, fmt="o-", label=label, lw=1.2, capsize=3)
             for xi, yi in zip(x * scale_x, y, strict=True):  # the values, readable on either scale
                 if np.isfinite(yi):
                     ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7,
@@ -91,7 +95,8 @@ def plot_study(ds: xr.Dataset) -> Figure:
         axes[1].legend(fontsize=8, frameon=False)
     failed = int(np.count_nonzero(ds["status"].values == -1))
     note = f" ({failed} failed runs)" if failed else ""
-    fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{note}", fontsize=11)
+    samples = f", mean of {n_real} realisations, 95 % intervals" if n_real > 1 else ""
+    fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{samples}{note}", fontsize=11)
     return fig
 
 

@@ -2,7 +2,8 @@
 
 A study file (TOML) holds
 
-    [study]    name, title, scene (path relative to the study file), mode = "grid" | "boundary"
+    [study]    name, title, scene (path relative to the study file), mode = "grid" | "boundary",
+               realizations = n (a last axis ``realization`` over the kind's seed: n samples per cell)
     [set]      scene values applied to every run (same keys as ``--set``)
     [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
                values = [...]  or  start, stop, step  (stop included)
@@ -32,13 +33,13 @@ from typing import Any
 from pipeline import __version__
 from pipeline.config import ConfigError, apply_overrides, dump_toml, parse_override, read_toml
 from pipeline.kinds import adapter_of
-from solver.kinds import DEFAULT_KIND, field_metadata, scene_from_dict
+from solver.kinds import DEFAULT_KIND, field_metadata, get_kind, scene_from_dict
 from solver.params import ParameterError
 
 MODES = ("grid", "boundary", "multifidelity")
 
 ALLOWED = {
-    "study": {"name", "title", "scene", "mode", "description"},
+    "study": {"name", "title", "scene", "mode", "description", "realizations"},
     "multifidelity": {"cheap", "axes"},
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
@@ -46,6 +47,8 @@ ALLOWED = {
     "boundary": {"axis", "tolerance", "stable_side"},
 }
 ROUND = 12  # decimals: axis values are rounded so that the same value always hashes the same
+#: Dimension of a study's realisations of a stochastic input (one seed each, see SceneKind.seed_key).
+REALIZATION = "realization"
 
 
 @dataclass(frozen=True)
@@ -283,8 +286,9 @@ def load_study(
         dup = {s for s in seen if seen.count(s) > 1}
         if dup:
             raise _study_error(path, "[[axes]]", f"{attr} {sorted(dup)} used by more than one axis")
+    axes += _realization_axis(path, head.get("realizations", 1), base, axes)
     for key in _flatten(fixed):
-        if key in {a.key for a in axes}:
+        if key in {a.key for a in axes} and key != get_kind(base.get("kind", DEFAULT_KIND)).seed_key:
             raise _study_error(path, "[set]", f"{key!r} is also an axis")
     for text in cli:
         key = parse_override(text)[0]
@@ -335,6 +339,29 @@ def load_study(
             except ParameterError as err:
                 raise _study_error(path, f"axis {a.key!r}", f"value {v!r} is not allowed: {err}") from None
     return study
+
+
+def _realization_axis(path: Path, n: Any, base: dict[str, Any], axes: tuple[Axis, ...]) -> tuple[Axis, ...]:
+    """``realizations = n``: a last axis over the kind's seed, n seeds from the scene's own (none for n = 1).
+
+    Each realisation is one reproducible sample of the stochastic input (a rough track): study datasets then
+    give each cell's mean over the realisations with its 95 % confidence interval.
+    """
+    if not isinstance(n, int) or isinstance(n, bool) or n < 1:
+        raise _study_error(path, "[study] realizations", f"{n!r} must be an integer >= 1")
+    if n == 1:
+        return ()
+    kind = get_kind(base.get("kind", DEFAULT_KIND))
+    if kind.seed_key is None:
+        raise _study_error(path, "[study] realizations", f"= {n}: scene kind {kind.name!r} is deterministic (no "
+                           "stochastic input to sample): use 1")  # fmt: skip
+    if kind.seed_key in {a.key for a in axes}:
+        raise _study_error(path, "[study] realizations", f"{kind.seed_key!r} is already an axis")
+    section, _, name = kind.seed_key.partition(".")
+    first = int(base.get(section, {}).get(name, getattr(kind.sections[section](), name)))
+    meta = field_metadata(kind.seed_key, kind.name)
+    return (Axis(kind.seed_key, REALIZATION, tuple(range(first, first + n)), meta.get("units", "1"),
+                 f"realisation of the stochastic input ({kind.seed_key})"),)  # fmt: skip
 
 
 def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], int]:

@@ -74,5 +74,6 @@ KIND = SceneKind(
     steady_free=STEADY_FREE,
     series=SERIES,
     tiny=tiny,
+    seed_key="disk.seed",
     warm_up=warm_up,
 )

@@ -65,5 +65,6 @@ KIND = SceneKind(
     steady_free=STEADY_FREE,
     series=SERIES,
     tiny=tiny,
+    seed_key=None,
     warm_up=warm_up,
 )
