@@ -95,6 +95,29 @@ STABLE_FLAGS = {"flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings":
 #: Status of a study cell that no run has filled.
 NOT_RUN = -2
 
+#: Regimes of an "abs" run (flag values), and the contact fraction at or above which contact is sustained.
+REGIMES = ("flying", "intermittent_contact", "sustained_contact", "stuck")
+SUSTAINED_FRACTION = 0.5
+REGIME_FLAGS = {"flag_values": np.arange(len(REGIMES), dtype=np.int8), "flag_meanings": " ".join(REGIMES)}
+
+
+def abs_regime(contact_fraction: float, flies: bool) -> int:
+    """The regime of an "abs" run, from its contact fraction after settling and whether the scene flies.
+
+    stuck: the scene has no flying equilibrium (the run started from the flight without adhesion), or the pad
+    is in contact at every sample; sustained contact: in contact at SUSTAINED_FRACTION of the samples or more;
+    intermittent contact: in contact at some samples; flying: at none.  A sample is in contact when its
+    contact force exceeds ``numerics.contact_threshold``.  -1: no samples (a failed run).
+    """
+    if contact_fraction != contact_fraction:
+        return -1
+    if not flies or contact_fraction >= 1.0:
+        return REGIMES.index("stuck")
+    if contact_fraction >= SUSTAINED_FRACTION:
+        return REGIMES.index("sustained_contact")
+    return REGIMES.index("intermittent_contact") if contact_fraction > 0.0 else REGIMES.index("flying")
+
+
 #: Outputs every kind has.
 COMMON_OUTPUTS: dict[str, Output] = {
     "status": Output(np.int8, NOT_RUN, "1", "run status", {
@@ -128,6 +151,9 @@ RAILS_OUTPUTS: dict[str, Output] = {
 ABS_OUTPUTS: dict[str, Output] = {
     "status": COMMON_OUTPUTS["status"],
     "message": COMMON_OUTPUTS["message"],
+    "regime": Output(np.int8, -1, "1", "regime of the run (rule: pipeline.classify.abs_regime)",
+                     {"flag_values": np.array([-1, *REGIME_FLAGS["flag_values"]], dtype=np.int8),
+                      "flag_meanings": "not_classified " + REGIME_FLAGS["flag_meanings"]}),
     "bouncing_3sigma": Output(np.float64, np.nan, "m", "3 sigma of the flying height at the element after settling"),
     "mean_flying_height": Output(np.float64, np.nan, "m", "mean flying height at the element after settling"),
     "min_clearance": Output(np.float64, np.nan, "m",
@@ -185,8 +211,10 @@ def abs_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
     from solver.abs.integrate import summarize
 
     steady = result.steady
+    summary = summarize(result, scene)
     return {
-        **summarize(result, scene),
+        **summary,
+        "regime": abs_regime(summary["contact_fraction"], not steady.note),
         "status": int(result.status),
         "message": result.message,
         "steps": int(result.work["steps"]),

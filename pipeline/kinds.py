@@ -109,7 +109,7 @@ def _adapters() -> dict[str, Adapter]:
         record=abs_record,
         outputs=ABS_OUTPUTS,
         study_outputs=tuple(ABS_OUTPUTS),
-        required_outputs=("status",),
+        required_outputs=("status", "regime"),
         impacts_kept=0,
         class_flag=None,
         run_inputs=_track_profile,

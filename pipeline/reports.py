@@ -6,6 +6,8 @@ from typing import Any
 
 import xarray as xr
 
+from .classify import REGIMES
+
 
 def _um(x: float) -> str:
     return f"{x * 1e6:.4f} um"
@@ -83,6 +85,7 @@ def abs_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
         f"t_end {scene.numerics.t_end * 1e3:g} ms",
         f"  status {result.status}: {result.message}",
         f"  steady flying height {float(ds['steady_flying_height']) * 1e9:.4f} nm",
+        f"  regime               {REGIMES[int(ds['regime'])] if int(ds['regime']) >= 0 else 'not classified'}",
         f"  bouncing 3 sigma     {float(ds['bouncing_3sigma']) * 1e9:.4f} nm "
         f"(mean FH {float(ds['mean_flying_height']) * 1e9:.4f} nm)",
         f"  mean contact force   {float(ds['mean_contact_force']) * 1e3:.5f} mN "
@@ -99,5 +102,6 @@ def rails_progress(record: dict[str, Any]) -> str:
 
 
 def abs_progress(record: dict[str, Any]) -> str:
+    regime = REGIMES[record["regime"]] if record.get("regime", -1) >= 0 else "not classified"
     return (f"3sigma {record['bouncing_3sigma'] * 1e9:7.4f} nm, contact force "
-            f"{record['mean_contact_force'] * 1e3:8.5f} mN")  # fmt: skip
+            f"{record['mean_contact_force'] * 1e3:8.5f} mN, {regime}")  # fmt: skip

@@ -242,3 +242,14 @@ def test_cli_failures_end_in_one_line_and_the_traceback_needs_debug(tmp_path, ca
     parser_main = main(["query", str(out)])
     err = capsys.readouterr().err
     assert parser_main == 1 and "unexpected KeyError" in err and "--debug" in err and err.count("\n") == 1
+
+
+def test_scene2_regime_rule():
+    from pipeline.classify import REGIMES, SUSTAINED_FRACTION, abs_regime
+
+    assert [REGIMES[abs_regime(f, True)] for f in (0.0, 1e-6, SUSTAINED_FRACTION - 1e-9)] == [
+        "flying", "intermittent_contact", "intermittent_contact"]  # fmt: skip
+    assert REGIMES[abs_regime(SUSTAINED_FRACTION, True)] == "sustained_contact"
+    assert REGIMES[abs_regime(1.0, True)] == "stuck"  # the pad never leaves the disk
+    assert REGIMES[abs_regime(0.0, False)] == "stuck"  # no flying equilibrium, whatever the run did
+    assert abs_regime(float("nan"), True) == -1

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, STATUS_FLAGS
+from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, REGIME_FLAGS, STATUS_FLAGS, abs_regime
 from pipeline.data.netcdf import product_attrs, var
 from solver.abs.integrate import AbsResult, spectrum, summarize
 from solver.abs.params import SERIES, AbsScene
@@ -72,6 +72,8 @@ def run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
     for key, value in summary.items():
         data[key] = var(value, (), outputs[key].units, outputs[key].long_name)
     data["status"] = var(np.int8(result.status), (), "1", "run status", **STATUS_FLAGS)
+    regime = abs_regime(summary["contact_fraction"], not result.steady.note)
+    data["regime"] = var(np.int8(regime), (), "1", ABS_OUTPUTS["regime"].long_name, **REGIME_FLAGS)
     for key, long_name in (("steps", "time steps"), ("newton_iterations", "Newton iterations of the contact solve"),
                            ("reynolds_solves", "Reynolds solves"), ("nodes", "grid nodes")):  # fmt: skip
         data[key] = var(result.work[key], (), "1", long_name)
@@ -84,5 +86,6 @@ def run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(product_attrs(f"Partial-contact dynamics of scene {scene.name}", scene, "run"))
     ds.attrs["status_message"] = result.message
+    ds.attrs["steady_note"] = result.steady.note
     ds.attrs["settle_time"] = scene.numerics.settle_time
     return ds
