@@ -89,15 +89,37 @@ def _attitude_text(q: np.ndarray) -> str:
 def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None = None) -> AbsSteady:
     """Steady attitude: film + surface forces balance the preload and static moments (smooth mean disk).
 
-    Newton's method on the three balances scaled by the preload (and the
-    slider length for moments); the film's Jacobian by forward differences
-    (each a warm-started steady Reynolds solve), the surface forces'
-    exactly.  A step is shortened so that the smallest pad spacing never
-    falls below half its value.  The roughness acts only statistically
-    here (sigma = the track RMS on every cell).
+    First Newton's method from ``q0`` or the standard guess
+    (:func:`_newton_flight`).  Where it fails and the scene has adhesion,
+    the flight is continued from the one without adhesion along its
+    flying height (:func:`_adhesion_continuation`): it reaches the scene's
+    delta_gamma, or passes the fold of the branch, beyond which there is no
+    flying equilibrium (an :class:`AttitudeError` naming the fold).
     """
     wall0 = time.perf_counter()
     film = film if film is not None else AbsFilm(scene)
+    try:
+        return _newton_flight(scene, film, q0)
+    except (AttitudeError, SteadyFilmError) as err:
+        if scene.contact.delta_gamma <= 0.0 or scene.models.contact == "none":
+            raise
+        first = err
+    log.info("fly_abs: %s; continuing from the flight without adhesion", first)
+    return _adhesion_continuation(scene, film, first, wall0)
+
+
+def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None) -> AbsSteady:
+    """Newton's method on the three balances, from q0 or the standard guess; an error where it fails.
+
+    The balances are scaled by the preload (and the slider length for
+    moments); the film's Jacobian by central differences (each a
+    warm-started steady Reynolds solve), the surface forces' exactly.  A
+    step is shortened so that the smallest pad spacing never falls below
+    half its value, then halved until the largest residual falls (Armijo).
+    The roughness acts only statistically here (sigma = the track RMS on
+    every cell).
+    """
+    wall0 = time.perf_counter()
     grid = film.grid
     surface = SurfaceModel(scene, grid)
     track_sigma = np.full(grid.shape, scene.disk.rms)
@@ -125,22 +147,9 @@ def fly_abs(scene: AbsScene, film: AbsFilm | None = None, q0: np.ndarray | None 
                 f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the attitude search stalled "
                 f"at a force residual of {best[-1]:.2e} preloads near {_attitude_text(q)}"
             )
-        J = sf.dfdq / scale[:, None]
-        steps = np.array([JACOBIAN_STEP, JACOBIAN_STEP / L, JACOBIAN_STEP / L])
-        for k in range(3):
-            dq = np.zeros(3)
-            dq[k] = steps[k]
-            forces = []
-            for sign in (1.0, -1.0):
-                film.P[:] = P_keep
-                film.solve_steady(q + sign * dq, tol=FILM_TOLERANCE)
-                forces.append(film.forces())
-            J[:, k] += (forces[0] - forces[1]) / scale / (2.0 * steps[k])
+        J = sf.dfdq / scale[:, None] + _film_jacobian(film, q, P_keep, scale)
         dq = np.linalg.solve(J, -r)
-        h = film.spacing(q)[pad]
-        change = dq @ surface.b[:, pad.ravel()]
-        hmin_allowed = np.where(change < 0, -MAX_SPACING_DROP * np.maximum(h, SPACING_FLOOR) / change, np.inf)
-        step = min(1.0, float(hmin_allowed.min()))
+        step = _spacing_limited_step(film, surface, pad, q, dq)
         trial = None
         for _ in range(MAX_LINE_SEARCH_HALVINGS):
             film.P[:] = P_keep
@@ -213,6 +222,241 @@ def fly_start(scene: AbsScene, film: AbsFilm | None = None) -> AbsSteady:
         )
         log.info(steady.note)
         return steady
+
+
+def _with_adhesion(scene: AbsScene, delta_gamma: float) -> AbsScene:
+    return dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, delta_gamma=delta_gamma))
+
+
+class _HeightBalances:
+    """The three balances at a prescribed element height, with delta_gamma as the third unknown.
+
+    The surface forces are affine in delta_gamma (the adhesion pressure is
+    adh_coef = 8 delta_gamma / (3 eps) times a function of the spacing;
+    contact and friction do not depend on it), so
+
+        r(q, dg) = (f_film(q) + f_s(q; 0) + dg a(q) + f_static) / scale,   a = f_s(q; 1) - f_s(q; 0),
+
+    and with the attitude q = (h - e0 - e1 pitch - e2 roll, pitch, roll)
+    (e = :func:`element_row`) the unknowns u = (pitch, roll, dg) are regular
+    through a fold in delta_gamma, where dg(h) has its maximum.
+    """
+
+    def __init__(self, scene: AbsScene, film: AbsFilm) -> None:
+        grid = film.grid
+        self.film = film
+        self.free = SurfaceModel(_with_adhesion(scene, 0.0), grid)
+        self.unit = SurfaceModel(_with_adhesion(scene, 1.0), grid)
+        self.sigma = np.full(grid.shape, scene.disk.rms)
+        self.f_static = static_forces(scene)
+        L = scene.slider.length
+        self.scale = np.array([1.0, L, L]) * max(scene.suspension.preload, MIN_FORCE_SCALE)
+        self.pad = grid.depth <= 0.5 * scene.abs.base_depth if scene.abs.base_depth > 0 else np.ones(grid.shape, bool)
+        self.row = element_row(scene)
+        self.tol = scene.numerics.steady_tol
+        #: dq / d(pitch, roll) at a fixed element height
+        self.tangent = np.array([[-self.row[1], -self.row[2]], [1.0, 0.0], [0.0, 1.0]])
+        self.iterations = 0
+
+    def attitude(self, h: float, u: np.ndarray) -> np.ndarray:
+        return np.array([h - self.row[0] - self.row[1] * u[0] - self.row[2] * u[1], u[0], u[1]])
+
+    def residual(self, q: np.ndarray, dg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Scaled residual (3,), the surface Jacobian d(f_s / scale)/dq (3, 3) and a / scale (3,) at (q, dg)."""
+        self.film.solve_steady(q, tol=FILM_TOLERANCE)
+        d = self.film.spacing(q)
+        free, unit = self.free.forces(d, self.sigma), self.unit.forces(d, self.sigma)
+        rate = (unit.f - free.f) / self.scale
+        dfdq = (free.dfdq + dg * (unit.dfdq - free.dfdq)) / self.scale[:, None]
+        r = (self.film.forces() + free.f + self.f_static) / self.scale + dg * rate
+        return r, dfdq, rate
+
+    def correct(self, h: float, u: np.ndarray, max_iterations: int) -> np.ndarray | None:
+        """Newton on u = (pitch, roll, dg) at element height h from u; the solution, or None if it fails.
+
+        Steps are limited like those of :func:`_newton_flight` (pad spacing,
+        then Armijo halvings of the largest residual).
+        """
+        film = self.film
+        u = np.array(u, dtype=float)
+        try:
+            q = self.attitude(h, u)
+            r, dfdq, rate = self.residual(q, u[2])
+        except SteadyFilmError:
+            return None
+        P_keep = film.P.copy()
+        for _ in range(max_iterations):
+            if np.max(np.abs(r)) < self.tol:
+                return u
+            self.iterations += 1
+            Jq = dfdq + _film_jacobian(film, q, P_keep, self.scale)
+            A = np.column_stack([Jq @ self.tangent, rate])
+            du = np.linalg.solve(A, -r)
+            step = _spacing_limited_step(film, self.free, self.pad, q, self.tangent @ du[:2])
+            trial = None
+            for _ in range(MAX_LINE_SEARCH_HALVINGS):
+                film.P[:] = P_keep
+                try:
+                    trial = self.residual(self.attitude(h, u + step * du), u[2] + step * du[2])
+                except SteadyFilmError:
+                    trial = None
+                if trial is not None and np.max(np.abs(trial[0])) < np.max(np.abs(r)) * (
+                    1.0 - SUFFICIENT_DECREASE * step
+                ):
+                    break
+                trial = None
+                step *= 0.5
+            if trial is None:
+                film.P[:] = P_keep
+                return None
+            u = u + step * du
+            q = self.attitude(h, u)
+            r, dfdq, rate = trial
+            P_keep = film.P.copy()
+            log.debug("height %.4f nm: pitch %.3f urad roll %.3f urad dg %.6f residual %s", h * 1e9, u[0] * 1e6,
+                      u[1] * 1e6, u[2], r)  # fmt: skip
+        film.P[:] = P_keep
+        return u if np.max(np.abs(r)) < self.tol else None
+
+
+#: Continuation along the flying height: first step, smallest and largest step [m], corrector iterations per
+#: step, and the growth of a step after a corrector that needed at most EASY_STEP iterations.
+HEIGHT_STEP = 0.05e-9
+MIN_HEIGHT_STEP = 1e-13
+MAX_HEIGHT_STEP = 0.1e-9
+CORRECTOR_ITERATIONS = 8
+EASY_STEP = 3
+STEP_GROWTH = 1.5
+#: The continuation gives up below this element height [m]: the pad is then deep in the asperities.
+MIN_ELEMENT_HEIGHT = -1e-9
+
+
+def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wall0: float) -> AbsSteady:
+    """Continue from the flight without adhesion along the flying height until delta_gamma is reached or folds.
+
+    The flight without adhesion (Newton from the standard guess) starts a
+    branch of equilibria (q, dg) parametrized by the element height h:
+    stepping h down, a predictor (secant in h) and :meth:`_HeightBalances.correct`
+    give dg(h).  Adhesion grows as the pad comes down; where the branch
+    reaches the scene's delta_gamma, Newton at that delta_gamma from the
+    interpolated attitude finishes the flight.  Where dg(h) turns back
+    first, its maximum is the fold: no flying equilibrium exists beyond it
+    (the parabola through the three points around the maximum locates it).
+    """
+    grid = film.grid
+    target = scene.contact.delta_gamma
+    P_first = film.P.copy()
+    film.P[:] = 1.0
+    try:
+        free = _newton_flight(_with_adhesion(scene, 0.0), film)
+    except (AttitudeError, SteadyFilmError) as err:
+        raise AttitudeError(
+            f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid, even without adhesion ({err}); "
+            f"the attitude search with it had failed: {first}"
+        ) from err
+    bal = _HeightBalances(scene, film)
+    iterations = free.iterations
+    h = element_spacing(scene, free.q, bal.row)
+    branch = [(h, np.array([free.q[1], free.q[2], 0.0]), film.P.copy())]
+    dh = HEIGHT_STEP
+    while True:
+        h0, u0, P0 = branch[-1]
+        if len(branch) > 1:
+            h1, u1, _ = branch[-2]
+            guess = u0 + (u0 - u1) * (dh / (h1 - h0))
+        else:
+            guess = u0
+        film.P[:] = P0
+        before = bal.iterations
+        u = bal.correct(h0 - dh, guess, CORRECTOR_ITERATIONS)
+        if u is None:
+            dh *= 0.5
+            if dh < MIN_HEIGHT_STEP:
+                film.P[:] = P_first
+                raise AttitudeError(
+                    f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the continuation in "
+                    f"delta_gamma stopped at {u0[2]:.4g} J/m2 near {_attitude_text(bal.attitude(h0, u0))} "
+                    f"(flying height {h0 * 1e9:.3f} nm); the attitude search had failed: {first}"
+                )
+            continue
+        branch.append((h0 - dh, u, film.P.copy()))
+        log.info("fly_abs continuation: flying height %.4f nm, delta_gamma %.6g J/m2", (h0 - dh) * 1e9, u[2])
+        if u[2] >= target:
+            w = (target - u0[2]) / (u[2] - u0[2])
+            uq = u0 + w * (u - u0)
+            q = bal.attitude(h0 - w * dh, uq)
+            try:
+                steady = _newton_flight(scene, film, q)
+            except (AttitudeError, SteadyFilmError):
+                branch.pop()
+                dh *= 0.25
+                continue
+            steady.iterations += iterations + bal.iterations
+            steady.wall_time = time.perf_counter() - wall0
+            return steady
+        if u[2] < u0[2] and len(branch) >= 3:
+            fold, hf = _parabola_peak(*[(b[0], b[1][2]) for b in branch[-3:]])
+            (ha, ua, _), (hb, ub, _) = branch[-2], branch[-1]
+            uf = ua + (hf - ha) / (hb - ha) * (ub - ua)
+            film.P[:] = P_first
+            err = AttitudeError(
+                f"no flying equilibrium on the {grid.shape[0]} x {grid.shape[1]} grid: the fold lies at delta_gamma "
+                f"= {fold:.4g} J/m2 (the scene asks {target:g}); beyond it the pad is pulled onto the disk "
+                f"(at the fold: flying height {hf * 1e9:.3f} nm, {_attitude_text(bal.attitude(hf, uf))}; every "
+                f"point of the branch balanced to a force residual below {bal.tol:.0e} preloads; Newton at "
+                f"delta_gamma = {target:g} had failed: {first})"
+            )
+            err.fold_delta_gamma = fold
+            raise err
+        if h0 - 2.0 * dh < MIN_ELEMENT_HEIGHT:
+            film.P[:] = P_first
+            raise AttitudeError(
+                f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the continuation reached "
+                f"deep into the asperities (flying height {(h0 - dh) * 1e9:.3f} nm) at delta_gamma = {u[2]:.4g} "
+                f"J/m2 near {_attitude_text(bal.attitude(h0 - dh, u))}; the attitude search had failed: {first}"
+            )
+        if bal.iterations - before <= EASY_STEP:
+            dh = min(MAX_HEIGHT_STEP, STEP_GROWTH * dh)
+
+
+def _parabola_peak(*points: tuple[float, float]) -> tuple[float, float]:
+    """Largest value and its abscissa of the parabola through three points (x, y), at least their largest y."""
+    x, y = np.array(points).T
+    a, b, c = np.polyfit(x - x[1], y, 2)
+    top = int(np.argmax(y))
+    if a >= 0.0:
+        return float(y[top]), float(x[top])
+    xs = -b / (2.0 * a)
+    if not min(x) - x[1] <= xs <= max(x) - x[1]:
+        return float(y[top]), float(x[top])
+    return float(max(c - b * b / (4.0 * a), y[top])), float(xs + x[1])
+
+
+def _film_jacobian(film: AbsFilm, q: np.ndarray, P_keep: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """Scaled film forces' Jacobian d(f / scale)/dq (3, 3) by central differences, each solve warm-started at P_keep."""
+    L = film.length
+    steps = np.array([JACOBIAN_STEP, JACOBIAN_STEP / L, JACOBIAN_STEP / L])
+    J = np.zeros((3, 3))
+    for k in range(3):
+        dq = np.zeros(3)
+        dq[k] = steps[k]
+        forces = []
+        for sign in (1.0, -1.0):
+            film.P[:] = P_keep
+            film.solve_steady(q + sign * dq, tol=FILM_TOLERANCE)
+            forces.append(film.forces())
+        J[:, k] = (forces[0] - forces[1]) / scale / (2.0 * steps[k])
+    return J
+
+
+def _spacing_limited_step(
+    film: AbsFilm, surface: SurfaceModel, pad: np.ndarray, q: np.ndarray, dq: np.ndarray
+) -> float:
+    """The largest step (<= 1) along dq that lowers no pad spacing by more than MAX_SPACING_DROP of it."""
+    h = film.spacing(q)[pad]
+    change = dq @ surface.b[:, pad.ravel()]
+    hmin_allowed = np.where(change < 0, -MAX_SPACING_DROP * np.maximum(h, SPACING_FLOOR) / change, np.inf)
+    return min(1.0, float(hmin_allowed.min()))
 
 
 def _initial_attitude(scene: AbsScene, grid: AbsGrid) -> np.ndarray:
