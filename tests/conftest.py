@@ -9,6 +9,7 @@ observed order.
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -109,3 +110,20 @@ def cf_errors(path) -> list[str]:
     if "exceptions occurred" in said.getvalue():
         errors.append(said.getvalue().strip())
     return errors
+
+
+#: The default scene-2 file.
+SCENE2_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"
+
+
+def chen_bogy(overrides: dict | None = None):
+    """chen_bogy2007 with dotted-key overrides ("numerics.nx": 41) applied to its TOML tables."""
+    import tomllib
+
+    from solver.kinds import scene_from_dict
+
+    data = tomllib.loads(SCENE2_FILE.read_text())
+    for key, value in (overrides or {}).items():
+        section, _, name = key.partition(".")
+        data.setdefault(section, {})[name] = value
+    return scene_from_dict(data, source=str(SCENE2_FILE))

@@ -15,31 +15,16 @@ contact (measured on 81 x 67: flying height 0.908 nm, minimum spacing
 
 from __future__ import annotations
 
-import tomllib
-from pathlib import Path
-
 import pytest
+from conftest import chen_bogy
 
-from solver.abs.params import AbsScene
 from solver.abs.steady import fly_abs, fly_start
 from solver.errors import AttitudeError
-from solver.kinds import scene_from_dict
-
-SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"
 
 #: Flying height at the element on the default 121 x 101 grid [m] (measured 2.0836 nm).
 DEFAULT_FLYING_HEIGHT = 2.0836e-9
 #: The band a grid's flying height should fall in around DEFAULT_FLYING_HEIGHT (241 x 201 gives 1.9965 nm, -4 %).
 FLYING_HEIGHT_BAND = 0.25
-
-
-def chen_bogy(overrides: dict | None = None) -> AbsScene:
-    """chen_bogy2007 with dotted-key overrides ("numerics.nx": 81) applied to its TOML tables."""
-    data = tomllib.loads(SCENE_FILE.read_text())
-    for key, value in (overrides or {}).items():
-        section, _, name = key.partition(".")
-        data.setdefault(section, {})[name] = value
-    return scene_from_dict(data, source=str(SCENE_FILE))
 
 
 @pytest.mark.parametrize(

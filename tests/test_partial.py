@@ -17,11 +17,10 @@ Starting a run from a chosen attitude needs a hand-built ``AbsSteady``
 from __future__ import annotations
 
 import math
-import tomllib
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import chen_bogy
 from scipy.integrate import quad
 
 from solver.abs.dynamics import mass_matrix
@@ -35,21 +34,10 @@ from solver.abs.track import Track
 from solver.kinds import scene_from_dict
 from solver.surface import surface_pressures
 
-SCENE_FILE = Path(__file__).resolve().parents[1] / "studies" / "scenes" / "chen_bogy2007.toml"
-
 #: The coarsest grid that resolves every region of chen_bogy2007.
 COARSE = {"numerics.nx": 41, "numerics.ny": 31, "numerics.refine_nodes": 2}
 
 LENGTH, WIDTH = 0.85e-3, 0.70e-3
-
-
-def chen_bogy(overrides: dict | None = None) -> AbsScene:
-    """chen_bogy2007 with dotted-key overrides ("numerics.nx": 41) applied to its TOML tables."""
-    data = tomllib.loads(SCENE_FILE.read_text())
-    for key, value in (overrides or {}).items():
-        section, _, name = key.partition(".")
-        data.setdefault(section, {})[name] = value
-    return scene_from_dict(data, source=str(SCENE_FILE))
 
 
 def start_at(scene: AbsScene, q) -> AbsSteady:
