@@ -189,17 +189,22 @@ def test_wedging_impulse_without_approach(corner):
         assert impact_map(SCENE1_ATTITUDE, v, corner, off)[1] == 0.0
 
 
+def normal_response(scene, corner: int) -> tuple[float, float]:
+    """G(mu) = n . M^-1 g(mu) at a corner, linear in mu: its value at mu = 0 and its slope."""
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    minv = np.linalg.inv(mass_matrix(scene.slider))
+    e = scene.slider.friction_lever
+    G0 = n @ minv @ impulse_direction(x1, x2, 0.0, e)
+    return G0, n @ minv @ (impulse_direction(x1, x2, 1.0, e) - impulse_direction(x1, x2, 0.0, e))
+
+
 @pytest.mark.parametrize("corner", CORNER_INDICES)
 def test_friction_beyond_the_painleve_limit_raises(corner):
     # G(mu) = n.M^-1 g(mu) is linear in mu; it reaches zero only at the front corners
     # (friction lifts the nose there) -- beyond that the impact is indeterminate
     base = scene_with(mu=0.0, alpha=0.8)
-    x1, x2 = corner_positions(base.slider)[corner]
-    n = corner_normal(x1, x2)
-    minv = np.linalg.inv(mass_matrix(base.slider))
-    e = base.slider.friction_lever
-    G0 = n @ minv @ impulse_direction(x1, x2, 0.0, e)
-    slope = n @ minv @ (impulse_direction(x1, x2, 1.0, e) - impulse_direction(x1, x2, 0.0, e))
+    G0, slope = normal_response(base, corner)
     assert G0 > 0.0
     v = approaching_velocities(np.random.default_rng(60 + corner), base, corner, count=1)[0]
     if corner_is_front(base.slider)[corner]:
@@ -284,12 +289,7 @@ def test_lone_corner_resolution_is_the_impact_map(corner, mu, alpha, rule):
 def test_lone_corner_resolution_shares_the_painleve_limit(corner):
     # beyond the limit (the front corners have one) both refuse the impact
     base = scene_with(mu=0.0, alpha=0.8)
-    x1, x2 = corner_positions(base.slider)[corner]
-    n = corner_normal(x1, x2)
-    minv = np.linalg.inv(mass_matrix(base.slider))
-    e = base.slider.friction_lever
-    G0 = n @ minv @ impulse_direction(x1, x2, 0.0, e)
-    slope = n @ minv @ (impulse_direction(x1, x2, 1.0, e) - impulse_direction(x1, x2, 0.0, e))
+    G0, slope = normal_response(base, corner)
     scene = scene_with(mu=-1.01 * G0 / slope, alpha=0.8)
     q, v = lone_corner_case(np.random.default_rng(70 + corner), scene, corner)
     with pytest.raises(ContactError):
