@@ -14,15 +14,23 @@ disk than its leading and trailing edges.
 
 Steps on a grid
 ---------------
-A step between regions almost never falls on a grid line.  By default
-(``subcells = 1``) node and face depths are sampled at the node and face
-centres, so a step acts at the nearest face: its position is off by at most
-half a cell and the load converges at first order (a Rayleigh step: load
-error 0.89, 0.33, 0.18, 0.03 cells at nx = 41, 81, 161, 241; tests/test_abs.py).
-``subcells`` > 1 averages the depth over ``subcells``^2 sub-samples of the
-control volume and dual cell; we tried it first, and it is wrong for the
-fluxes: a face straddling a step gets an intermediate spacing, while the flux
-goes with h^3, and the error stayed at 2.4-7 cells under refinement.
+A step between regions almost never falls on a grid line.  Sampling the
+depth at node and face centres (``numerics.faces = "sampled"``, the scheme
+before this one) moves every step by up to half a cell, differently on every
+grid: the load of the Rayleigh step converged erratically, and the flying
+height of chen_bogy2007 scattered by +-0.2 nm from grid to grid.  Averaging
+the depth over a face (tried first) was worse: the flux goes with h^3.
+
+The default, ``"fitted"``, places the nodes so that every region edge along
+a grid line is a control-volume face (:func:`refined_axis`): no control
+volume holds two depths there, and the link across the edge joins its two
+halves in series.  What no tensor grid can fit (slanted polygon sides, edges
+closer than a cell) is measured exactly as cut links and cut volumes
+(:mod:`solver.abs.cuts`); ``"cut"`` does that for every edge on the plain
+grid.  A cut volume that holds part of the other region is a sliver the
+node-centred scheme cannot represent (the sliver's flow is tied to the
+node's pressure): on the plain grid the load still scattered by 3-8 %, on
+the fitted one it converges monotonically (README, the grid ladder).
 
 Grid
 ----
@@ -34,10 +42,12 @@ transitions between the two spacings.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
+from solver.abs.cuts import CutLinks, no_cuts, rasterise
 from solver.abs.params import AbsScene, Region
 from solver.grid import control_volume_widths
 from solver.params import ParameterError
@@ -86,16 +96,6 @@ def shape(x: np.ndarray, y: np.ndarray, scene: AbsScene) -> np.ndarray:
     return s.crown * xi**2 + s.camber * eta**2 + s.twist * xi * eta
 
 
-def _averaged_depth(x0: np.ndarray, x1: np.ndarray, y0: np.ndarray, y1: np.ndarray, scene: AbsScene, n: int):
-    """Mean depth over the boxes [x0_i, x1_i] x [y0_j, y1_j] from n x n midpoint sub-samples: (len x0, len y0)."""
-    u = (np.arange(n) + 0.5) / n
-    xs = x0[:, None] + (x1 - x0)[:, None] * u[None, :]  # (nx, n)
-    ys = y0[:, None] + (y1 - y0)[:, None] * u[None, :]  # (ny, n)
-    X = np.broadcast_to(xs[:, None, :, None], (len(x0), len(y0), n, n))
-    Y = np.broadcast_to(ys[None, :, None, :], (len(x0), len(y0), n, n))
-    return depth(X, Y, scene).mean(axis=(2, 3))
-
-
 def _window_bounds(scene: AbsScene) -> tuple[tuple[float, float], tuple[float, float]] | None:
     if not scene.abs.refine_region:
         return None
@@ -104,28 +104,108 @@ def _window_bounds(scene: AbsScene) -> tuple[tuple[float, float], tuple[float, f
     return (v[:, 0].min(), v[:, 0].max()), (v[:, 1].min(), v[:, 1].max())
 
 
-def refined_axis(lo: float, hi: float, n: int, window: tuple[float, float] | None, refine: float) -> np.ndarray:
-    """n nodes on [lo, hi], ``refine`` times denser over ``window`` (smooth tanh transitions)."""
+def _density(lo: float, hi: float, window: tuple[float, float] | None, refine: float):
+    """Fine sample points on [lo, hi] and the node density there: ``refine`` times higher over ``window``."""
+    fine = np.linspace(lo, hi, 200001)
     if window is None or refine == 1.0:
-        return np.linspace(lo, hi, n)
+        return fine, np.ones(fine.size)
     a, b = max(window[0], lo), min(window[1], hi)
-    fine = np.linspace(lo, hi, 20001)
     width = 0.02 * (hi - lo)
     weight = 0.5 * (np.tanh((fine - a) / width * 2.0 + 1.0) - np.tanh((fine - b) / width * 2.0 - 1.0))
-    density = 1.0 + (refine - 1.0) * weight
+    return fine, 1.0 + (refine - 1.0) * weight
+
+
+def refined_axis(
+    lo: float, hi: float, n: int, window: tuple[float, float] | None, refine: float, edges: np.ndarray | None = None
+) -> np.ndarray:
+    """n nodes on [lo, hi], ``refine`` times denser over ``window`` (smooth tanh transitions).
+
+    With ``edges``, every edge is made a control-volume face: its two neighbouring nodes sit half the
+    local spacing s either side of it, and the nodes between consecutive edges follow the density.  An
+    edge closer than s to an end, or 1.5 s to another edge, stays between nodes (the cut links handle it).
+    """
+    fine, density = _density(lo, hi, window, refine)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(fine))])
-    nodes = np.interp(np.linspace(0.0, cdf[-1], n), cdf, fine)
+    step = cdf[-1] / (n - 1)  # cdf mass of one interval
+    spacing = lambda e: step / np.interp(e, fine, density)  # noqa: E731
+    e = np.unique(np.asarray(edges if edges is not None else [], dtype=float))
+    s = spacing(e)
+    apart = np.ones(e.size, dtype=bool)  # both edges of a pair closer than 1.5 s stay cut
+    close = np.diff(e) <= 1.5 * np.maximum(s[1:], s[:-1])
+    apart[1:] &= ~close
+    apart[:-1] &= ~close
+    kept = list(e[apart & (e - s > lo) & (e + s < hi)])
+    if not kept:
+        nodes = np.interp(np.linspace(0.0, cdf[-1], n), cdf, fine)
+        nodes[0], nodes[-1] = lo, hi
+        return nodes
+    gaps = [(e - 0.5 * spacing(e), e + 0.5 * spacing(e)) for e in kept]
+    starts = [lo] + [g[1] for g in gaps]
+    ends = [g[0] for g in gaps] + [hi]
+    mass = np.array([np.interp(b, fine, cdf) - np.interp(a, fine, cdf) for a, b in zip(starts, ends, strict=True)])
+    free = n - 1 - len(gaps)  # intervals left for the segments between the edge gaps
+    share = mass / mass.sum() * free
+    counts = np.maximum(np.floor(share).astype(int), 1)
+    while counts.sum() < free:  # largest remainders first
+        counts[np.argmax(share - counts)] += 1
+    while counts.sum() > free:
+        counts[np.argmax(np.where(counts > 1, counts - share, -np.inf))] -= 1
+    parts = []
+    for a, b, m in zip(starts, ends, counts, strict=True):
+        c = np.linspace(np.interp(a, fine, cdf), np.interp(b, fine, cdf), m + 1)
+        seg = np.interp(c, cdf, fine)
+        seg[0], seg[-1] = a, b
+        parts.append(seg)
+    nodes = np.concatenate(parts)
     nodes[0], nodes[-1] = lo, hi
     return nodes
 
 
+def centred_axis(
+    half: float, n: int, window: tuple[float, float] | None, refine: float, edges: np.ndarray | None
+) -> np.ndarray:
+    """:func:`refined_axis` on [-half, half], mirror-symmetric when the window and the edges are.
+
+    A symmetric face must give a symmetric grid (no spurious roll): the lower half is built and
+    mirrored, with the centre a node (n odd) or a control-volume face (n even).
+    """
+    e = np.unique(np.asarray(edges if edges is not None else [], dtype=float))
+    tol = 1e-12 * half
+    symmetric = (window is None or abs(window[0] + window[1]) <= tol) and np.allclose(e, -e[::-1], rtol=0, atol=tol)
+    if not symmetric:
+        return refined_axis(-half, half, n, window, refine, e)
+    lower = e[e < -tol]
+    if n % 2:
+        nodes = refined_axis(-half, 0.0, (n + 1) // 2, window, refine, lower)
+        return np.concatenate([nodes[:-1], [0.0], -nodes[-2::-1]])
+    full = refined_axis(-half, half, n, window, refine)  # the plain spacing at the centre
+    gap = 0.5 * (full[n // 2] - full[n // 2 - 1])
+    nodes = refined_axis(-half, -gap, n // 2, window, refine, lower)
+    return np.concatenate([nodes, -nodes[::-1]])
+
+
+def axis_edges(scene: AbsScene, axis: int) -> np.ndarray:
+    """Coordinates along ``axis`` of the regions' edges that run across it (x = const edges for axis 0)."""
+    out = []
+    for region in scene.abs.regions:
+        v = region_geometry(region, scene)
+        w = np.roll(v, -1, axis=0)
+        straight = np.abs(v[:, axis] - w[:, axis]) <= 1e-12 * scene.slider.length
+        out.extend(v[straight, axis])
+    return np.unique(np.array(out))
+
+
 @dataclass(frozen=True)
 class AbsGrid:
-    """Tensor grid of the face and the static surface on nodes and faces.
+    """Tensor grid of the face and the static surface on nodes, links and contact patches.
 
-    x : (nx,), y : (ny,) [m]; surface (nx, ny), surface_xf (nx-1, ny),
-    surface_yf (nx, ny-1) [m]: depth + crown/camber/twist, to be added to
-    the attitude's plane.  area (nx, ny) control volumes [m2].
+    x : (nx,), y : (ny,) [m].  Static surfaces (etch depth + crown/camber/twist [m], to be added to the
+    attitude's plane): ``surface_xf`` (nx-1, ny) and ``surface_yf`` (nx, ny-1) on the links between
+    nodes at the face mid-points (where a link is cut, its segments in ``cuts_x``/``cuts_y`` replace it),
+    ``surface_xe`` (2, nx-1, ny) and ``surface_ye`` (2, nx, ny-1) the same links' surface at their two nodes,
+    ``storage`` (nx, ny) the control volume's mean (the squeeze term), and ``surface`` (nx, ny) on each
+    control volume's contact patch, the part at its shallowest depth ``depth``, of area ``contact_area``
+    [m2] and centroid (``contact_x``, ``contact_y``).  ``area`` (nx, ny): the control volumes [m2].
     """
 
     x: np.ndarray
@@ -133,8 +213,16 @@ class AbsGrid:
     surface: np.ndarray
     surface_xf: np.ndarray
     surface_yf: np.ndarray
+    surface_xe: np.ndarray
+    surface_ye: np.ndarray
+    storage: np.ndarray
     depth: np.ndarray
     area: np.ndarray
+    contact_area: np.ndarray
+    contact_x: np.ndarray
+    contact_y: np.ndarray
+    cuts_x: CutLinks
+    cuts_y: CutLinks
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -150,35 +238,78 @@ class AbsGrid:
 
 
 def abs_grid(scene: AbsScene) -> AbsGrid:
-    """Grid and rasterised surface of a scene; a grid too coarse for a pad is an error naming it."""
+    """Grid and rasterised surface of a scene; a grid too coarse for a pad is an error naming it.
+
+    ``numerics.faces = "fitted"`` (default) places the nodes so that every region edge along a grid
+    line is a control-volume face, and measures the rest exactly (:mod:`solver.abs.cuts`); ``"cut"``
+    keeps the plain grid and measures every edge as cut links and patches; ``"sampled"`` samples the
+    depth at node and face centres (every step up to half a cell off: the scheme before cut cells).
+    Both others are kept for comparison (README, the grid ladder).
+    """
     s, num = scene.slider, scene.numerics
     window = _window_bounds(scene)
     margin_x = 0.5 * (window[0][1] - window[0][0]) if window else 0.0
     margin_y = 0.25 * (window[1][1] - window[1][0]) if window else 0.0
     wx = (window[0][0] - margin_x, window[0][1] + margin_x) if window else None
     wy = (window[1][0] - margin_y, window[1][1] + margin_y) if window else None
-    x = refined_axis(0.0, s.length, num.nx, wx, num.refine)
-    y = refined_axis(-0.5 * s.width, 0.5 * s.width, num.ny, wy, num.refine)
+    fitted = num.faces == "fitted"
+    x = refined_axis(0.0, s.length, num.nx, wx, num.refine, axis_edges(scene, 0) if fitted else None)
+    y = centred_axis(0.5 * s.width, num.ny, wy, num.refine, axis_edges(scene, 1) if fitted else None)
     _check_resolution(scene, x, y)
-    dxc, dyc = control_volume_widths(x), control_volume_widths(y)
+    area = control_volume_widths(x)[:, None] * control_volume_widths(y)[None, :]
     xf, yf = 0.5 * (x[1:] + x[:-1]), 0.5 * (y[1:] + y[:-1])
-    xl = np.concatenate([[x[0]], xf])  # control-volume bounds
-    xr = np.concatenate([xf, [x[-1]]])
-    yl = np.concatenate([[y[0]], yf])
-    yr = np.concatenate([yf, [y[-1]]])
-    n = num.subcells
-    node_depth = _averaged_depth(xl, xr, yl, yr, scene, n)
-    xf_depth = _averaged_depth(x[:-1], x[1:], yl, yr, scene, n)
-    yf_depth = _averaged_depth(xl, xr, y[:-1], y[1:], scene, n)
+    if num.faces in ("fitted", "cut"):
+        polygons = [region_geometry(r, scene) for r in scene.abs.regions]
+        face = rasterise(polygons, [r.depth for r in scene.abs.regions], scene.abs.base_depth, x, y)
+        link_x = _fill_cut(face.link_depth_x, face.cuts_x, x.size - 1, y.size, 0)
+        link_y = _fill_cut(face.link_depth_y, face.cuts_y, x.size, y.size - 1, 1)
+        mean, top, fraction = face.mean_depth, face.patch_depth, face.patch_fraction
+        cx, cy, cuts_x, cuts_y = face.patch_x, face.patch_y, face.cuts_x, face.cuts_y
+    else:
+        X, Y = np.meshgrid(x, y, indexing="ij")
+        mean = top = depth(X, Y, scene)
+        link_x, link_y = depth(xf[:, None], y[None, :], scene), depth(x[:, None], yf[None, :], scene)
+        fraction, cx, cy, cuts_x, cuts_y = np.ones(X.shape), X, Y, no_cuts(), no_cuts()
     return AbsGrid(
         x=x,
         y=y,
-        surface=node_depth + shape(x[:, None], y[None, :], scene),
-        surface_xf=xf_depth + shape(xf[:, None], y[None, :], scene),
-        surface_yf=yf_depth + shape(x[:, None], yf[None, :], scene),
-        depth=node_depth,
-        area=dxc[:, None] * dyc[None, :],
+        surface=top + shape(cx, cy, scene),
+        surface_xf=link_x + shape(xf[:, None], y[None, :], scene),
+        surface_yf=link_y + shape(x[:, None], yf[None, :], scene),
+        surface_xe=np.stack(
+            [link_x + shape(x[:-1, None], y[None, :], scene), link_x + shape(x[1:, None], y[None, :], scene)]
+        ),
+        surface_ye=np.stack(
+            [link_y + shape(x[:, None], y[None, :-1], scene), link_y + shape(x[:, None], y[None, 1:], scene)]
+        ),
+        storage=mean + shape(x[:, None], y[None, :], scene),
+        depth=top,
+        area=area,
+        contact_area=area * fraction,
+        contact_x=cx,
+        contact_y=cy,
+        cuts_x=_with_surface(cuts_x, scene),
+        cuts_y=_with_surface(cuts_y, scene),
     )
+
+
+def _fill_cut(link_depth: np.ndarray, cuts: CutLinks, n1: int, n2: int, axis: int) -> np.ndarray:
+    """Plain-link depths with the cut links (nan) set to their length-weighted mean (finite; the cuts replace them)."""
+    out = link_depth.copy()
+    for n, (i, j) in enumerate(cuts.face):
+        p0, p1 = cuts.piece_ptr[n], cuts.piece_ptr[n + 1]
+        total = 0.0
+        for p in range(p0, p1):
+            s0, s1 = cuts.seg_ptr[p], cuts.seg_ptr[p + 1]
+            total += cuts.piece_weight[p] * float(cuts.seg_theta[s0:s1] @ cuts.seg_depth[s0:s1])
+        out[i, j] = total
+    assert out.shape == (n1, n2) and np.all(np.isfinite(out)), axis
+    return out
+
+
+def _with_surface(cuts: CutLinks, scene: AbsScene) -> CutLinks:
+    """The cut links with their segments' static surface: depth + crown/camber/twist."""
+    return dataclasses.replace(cuts, seg_surface=cuts.seg_depth[None, :] + shape(cuts.seg_x, cuts.seg_y, scene))
 
 
 def _check_resolution(scene: AbsScene, x: np.ndarray, y: np.ndarray) -> None:

@@ -63,7 +63,7 @@ class AbsFilm:
         nx, ny = g.shape
         self.shape = (nx, ny)
         z3 = lambda *shape: np.zeros((1, *shape))  # noqa: E731
-        self.surface = g.surface[None]
+        self.storage = g.storage[None]
         self.surface_xf = g.surface_xf[None]
         self.surface_yf = g.surface_yf[None]
         self.P = np.ones((1, nx, ny))
@@ -71,6 +71,8 @@ class AbsFilm:
         self.H_new = z3(nx, ny)
         self.Hx = z3(nx - 1, ny)
         self.Hy = z3(nx, ny - 1)
+        self.Hxe = np.zeros((2, nx - 1, ny))  # spacings at the two nodes of each link, on its surface
+        self.Hye = np.zeros((2, nx, ny - 1))
         self.disk = z3(nx, ny)
         self.disk_xf = z3(nx - 1, ny)
         self.disk_yf = z3(nx, ny - 1)
@@ -83,8 +85,16 @@ class AbsFilm:
             Jyp=z3(nx, ny), xface=np.zeros((3, nx - 1, ny)), yface=np.zeros((3, nx, ny - 1)),
             diag=z3(nx, ny), rhs=z3(nx, ny), delta=z3(nx, ny), work=z3(nx, ny),
         )  # fmt: skip
+        cx, cy = g.cuts_x, g.cuts_y
+        self.cuts = kf.AbsFilmCuts(
+            xface=cx.face, xpiece_ptr=cx.piece_ptr, xweight=cx.piece_weight, xseg_ptr=cx.seg_ptr,
+            xtheta=cx.seg_theta, xH=np.zeros((3, cx.seg_theta.size)), yface=cy.face, ypiece_ptr=cy.piece_ptr,
+            yweight=cy.piece_weight, yseg_ptr=cy.seg_ptr, ytheta=cy.seg_theta, yH=np.zeros((3, cy.seg_theta.size)),
+        )  # fmt: skip
+        self._owner = (cx.owner, cy.owner)
+        self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
-        self._kernel_film = (tuple(self.constants), tuple(self.scratch))
+        self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
         self._pattern = _jacobian_pattern(nx, ny)
         self.reynolds_solves = 0
         self.newton_iterations = 0
@@ -101,36 +111,60 @@ class AbsFilm:
         g = self.grid
         kf.fill_spacing(q, g.xf, g.y, *self.pivot, self.surface_xf, self.disk_xf, self.inv_href, self.floor, self.Hx)
         kf.fill_spacing(q, g.x, g.yf, *self.pivot, self.surface_yf, self.disk_yf, self.inv_href, self.floor, self.Hy)
+        d, se, sy = self.disk, g.surface_xe, g.surface_ye
+        for k, (x, disk) in enumerate(((g.x[:-1], d[:, :-1]), (g.x[1:], d[:, 1:]))):
+            kf.fill_spacing(q, x, g.y, *self.pivot, se[k : k + 1], disk, self.inv_href, self.floor, self.Hxe[k : k + 1])
+        for k, (y, disk) in enumerate(((g.y[:-1], d[:, :, :-1]), (g.y[1:], d[:, :, 1:]))):
+            kf.fill_spacing(q, g.x, y, *self.pivot, sy[k : k + 1], disk, self.inv_href, self.floor, self.Hye[k : k + 1])
+        for cuts, disk, owner, H in ((g.cuts_x, self.disk_xf, self._owner[0], self.cuts.xH),
+                                     (g.cuts_y, self.disk_yf, self._owner[1], self.cuts.yH)):  # fmt: skip
+            for r in range(3):  # each segment's mid-point and ends
+                kf.fill_points(q, cuts.seg_x[r], cuts.seg_y[r], *self.pivot, cuts.seg_surface[r], disk, cuts.face,
+                               owner, self.inv_href, self.floor, H[r])  # fmt: skip
 
     def fill_nodes(self, q: np.ndarray, out: np.ndarray) -> None:
+        """Scaled spacing of each control volume's mean surface (what its squeeze term stores)."""
         g = self.grid
-        kf.fill_spacing(q, g.x, g.y, *self.pivot, self.surface, self.disk, self.inv_href, self.floor, out)
+        kf.fill_spacing(q, g.x, g.y, *self.pivot, self.storage, self.disk, self.inv_href, self.floor, out)
 
     def spacing(self, q: np.ndarray) -> np.ndarray:
-        """Physical spacing at the nodes (nx, ny) [m], without the floor."""
+        """Physical spacing at each control volume's contact patch (nx, ny) [m], without the floor."""
         g = self.grid
         z, pitch, roll = q
         return (
-            z
-            - (g.x[:, None] - self.pivot[0]) * pitch
-            - (g.y[None, :] - self.pivot[1]) * roll
-            + g.surface
-            - self.disk[0]
+            z - (g.contact_x - self.pivot[0]) * pitch - (g.contact_y - self.pivot[1]) * roll + g.surface - self.disk[0]
         )
 
     # forces -------------------------------------------------------------------------------------------
 
     def forces(self) -> np.ndarray:
-        """Generalized film forces on (z, pitch, roll) [N, N m, N m] from the current pressure."""
-        g = self.grid
-        f, mp, mr = kf.film_forces(self.P, g.area, g.x, g.y, *self.pivot)
+        """Generalized film forces on (z, pitch, roll) [N, N m, N m] from the current pressure.
+
+        The node quadrature, with the cut links' exact segment profiles in
+        place of its trapezoids (:func:`solver.kernels.film.cut_corrections`).
+        """
+        g, c, xp, yp = self.grid, self.cuts, *self.pivot
+        f, mp, mr = kf.film_forces(self.P, g.area, g.x, g.y, xp, yp)
+        args = (self.kn, self.h_ref, self.h_switch, self.code)
+        if g.cuts_x.count:
+            load, along, across = kf.cut_corrections(
+                self.P, c.xface, c.xpiece_ptr, c.xweight, c.xseg_ptr, c.xtheta, c.xH, g.cuts_x.seg_x[0], g.x, g.y,
+                self._width_y, self.dx, 0, self.lamx, *args, xp, yp,
+            )  # fmt: skip
+            f, mp, mr = f + load, mp - along, mr - across
+        if g.cuts_y.count:
+            load, along, across = kf.cut_corrections(
+                self.P, c.yface, c.ypiece_ptr, c.yweight, c.yseg_ptr, c.ytheta, c.yH, g.cuts_y.seg_y[0], g.y, g.x,
+                self._width_x, self.dy, 1, self.lamy, *args, yp, xp,
+            )  # fmt: skip
+            f, mp, mr = f + load, mp - across, mr - along
         return self.p0 * np.array([f, mp, mr])
 
     # steady -------------------------------------------------------------------------------------------
 
     def residual(self) -> np.ndarray:
         """Steady flux residual at the current P and face spacings (1, nx, ny)."""
-        kf.assemble(self.P, self.Hx, self.Hy, *self._kernel_film)
+        kf.assemble(self.P, self.Hx, self.Hy, self.Hxe, self.Hye, *self._kernel_film)
         return self.scratch.R
 
     def solve_steady(self, q: np.ndarray, tol: float = 1e-10, max_iter: int = 60) -> int:
@@ -188,7 +222,9 @@ class AbsFilm:
         self.set_disk(0.5 * (disk_old + disk_new))
         self.fill_faces(0.5 * (q_old + q_new))
         self.set_disk(disk_new)
-        kf.film_step(self.P, self.H, self.H_new, self.Hx, self.Hy, self.sigma / dt, *self._kernel_film)
+        kf.film_step(
+            self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.sigma / dt, *self._kernel_film
+        )
         self.reynolds_solves += 1
 
     @property

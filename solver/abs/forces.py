@@ -60,9 +60,9 @@ class SurfaceModel:
         self.friction_arm = np.array([0.0, -t * math.cos(psi), -t * math.sin(psi)])
         self.reach = self.eps + c.candidate_gap
         s = scene.slider
-        X, Y = np.meshgrid(grid.x - s.pivot_x, grid.y - s.pivot_y, indexing="ij")
-        self.b = np.stack([np.ones(X.size), -X.ravel(), -Y.ravel()])  # (3, n) d(spacing)/dq per node
-        self.area = grid.area.ravel()
+        X, Y = grid.contact_x - s.pivot_x, grid.contact_y - s.pivot_y  # each control volume's contact patch
+        self.b = np.stack([np.ones(X.size), -X.ravel(), -Y.ravel()])  # (3, n) d(spacing)/dq per patch
+        self.area = grid.contact_area.ravel()
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
 

@@ -313,13 +313,14 @@ class AbsNumerics(Section):
     refine_nodes: int = quantity(
         3, "1", "fewest nodes across the narrowest dimension of any region (grid-resolution check)", lo=2
     )
-    subcells: int = quantity(
-        1,
-        "1",
-        "sub-samples per cell side when rasterising the regions (1: the depth at the node or face centre; "
-        "averaging smears a step across a face and its h^3 flux, README)",
-        lo=1,
-        hi=64,
+    faces: str = quantity(
+        "fitted",
+        "",
+        "how the regions meet the grid: fitted (nodes placed so that region edges along grid lines are "
+        "control-volume faces, the rest cut), cut (the plain grid, every edge as cut links in series/parallel "
+        "and contact patches) or sampled (depth at node and face centres: steps up to half a cell off, the "
+        "scheme before cut cells)",
+        choices=("fitted", "cut", "sampled"),
     )
     dt: float = quantity(0.2e-6, "s", "time step", lo=0.0, lo_open=True)
     t_end: float = quantity(1.0e-3, "s", "duration of a run", lo=0.0, lo_open=True)

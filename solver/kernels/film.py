@@ -29,7 +29,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import njit
-from .reynolds import af_solve, bernoulli, sg_flux
+from .reynolds import af_solve, bernoulli
 from .slip import flow_factor
 
 
@@ -86,29 +86,274 @@ def bernoulli_signed(x: float) -> tuple[float, float]:
 
 @njit
 def face_flux(
-    pl: float, pr: float, hf: float, inv_d: float, lam: float, kn: float, h_ref: float, h_switch: float, code: int
-) -> tuple[float, float, float]:
-    """Scharfetter-Gummel flux between nodes L and R and its derivatives dF/dP_L, dF/dP_R."""
+    pl: float, pr: float, hl: float, hr: float, hf: float, inv_d: float, lam: float, kn: float, h_ref: float,
+    h_switch: float, code: int,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Flux between nodes L and R of one region and its derivatives dF/dP_L, dF/dP_R.
+
+    The flux F = L H P - D dP/dX is fitted exponentially in the mass
+    variable m = P H (node spacings hl, hr; hf at the face):
+
+        F = A m - K dm/dX,   K = D / hf,   A = L + D H' / hf^2,   H' = (hr - hl) inv_d,
+        F = (K inv_d) B(Pe) (m_L - m_R) + A m_L,   Pe = A / (K inv_d)
+
+    (Scharfetter-Gummel in m; B(-x) = B(x) + x covers either sign of A).
+    Where Couette flow dominates (Pe >> 1, the pad under a thin film) it
+    tends to F = L m_L, so that P H is conserved node to node as it is
+    along the exact solution; the same fit in P (F -> L hf P_L) shifts
+    P = C / H by half a cell and is first order.  With a uniform spacing it
+    is the fit in P.  D is taken at the face spacing and mean pressure.
+    """
     pf = 0.5 * (pl + pr)
     phi, dphi = flow_factor(code, pf, hf, kn, h_ref, h_switch)
     h3 = hf * hf * hf
     d = h3 * pf * phi
     dd = 0.5 * h3 * (phi + pf * dphi)  # dD / dP_node
-    a = lam * hf
-    pe = a / (d * inv_d)
+    slope = (hr - hl) * inv_d / (hf * hf)
+    k = d / hf
+    a = lam + d * slope
+    pe = a / (k * inv_d)
     b, db = bernoulli_signed(pe)
-    return sg_flux(pl, pr, d, dd, a, pe, b, db, inv_d)
+    g = k * inv_d * b
+    ml, mr = pl * hl, pr * hr
+    # d/dD of K, A, Pe, g: K' = 1/hf, A' = slope, Pe' = (A' K - A K') / (K^2 inv_d)
+    dpe = (slope * k - a / hf) / (k * k * inv_d)
+    dg = inv_d * (b / hf + k * db * dpe)
+    f_d = dg * (ml - mr) + slope * ml  # dF/dD
+    return g * (ml - mr) + a * ml, (g + a) * hl + f_d * dd, -g * hr + f_d * dd
+
+
+class AbsFilmCuts(NamedTuple):
+    """The cut links of the face (:mod:`solver.abs.cuts`), passed like :class:`AbsFilmConstants`.
+
+    Per axis (x: links i -> i+1, y: links j -> j+1): face (n, 2) the link's lower node (i, j);
+    piece_ptr (n + 1,) into the pieces, weight (m,) their shares of the strip; seg_ptr (m + 1,) into
+    the segments, theta (k,) their shares of the link, H (3, k) their scaled spacings at mid-point and
+    ends (set per step).
+    """
+
+    xface: np.ndarray
+    xpiece_ptr: np.ndarray
+    xweight: np.ndarray
+    xseg_ptr: np.ndarray
+    xtheta: np.ndarray
+    xH: np.ndarray
+    yface: np.ndarray
+    ypiece_ptr: np.ndarray
+    yweight: np.ndarray
+    yseg_ptr: np.ndarray
+    ytheta: np.ndarray
+    yH: np.ndarray
 
 
 @njit
-def assemble(P: np.ndarray, Hx: np.ndarray, Hy: np.ndarray, constants: tuple, scratch: tuple) -> None:
+def segment(
+    pf: float, h: float, hl: float, hr: float, inv: float, lam: float, kn: float, h_ref: float, h_switch: float,
+    code: int,
+) -> tuple[float, float, float, float, float]:  # fmt: skip
+    """One segment's flux F = c P_left - g P_right (fitted in m = P H, :func:`face_flux`): g, dg, c, dc, Pe.
+
+    h: the spacing at its mid-point, hl and hr at its ends (on its own surface); inv = 1/length;
+    dg, dc: derivatives with respect to a node pressure (through D at the link's mean pressure pf).
+    """
+    phi, dphi = flow_factor(code, pf, h, kn, h_ref, h_switch)
+    h3 = h * h * h
+    d = h3 * pf * phi
+    dd = 0.5 * h3 * (phi + pf * dphi)
+    slope = (hr - hl) * inv / (h * h)
+    k = d / h
+    a = lam + d * slope
+    pe = a / (k * inv)
+    b, db = bernoulli_signed(pe)
+    g = k * inv * b
+    dg = inv * (b / h + k * db * (slope * k - a / h) / (k * k * inv)) * dd
+    return g * hr, dg * hr, (g + a) * hl, (dg + slope * dd) * hl, pe
+
+
+@njit
+def series_flux(
+    pl: float, pr: float, H: np.ndarray, theta: np.ndarray, s0: int, s1: int, inv_d: float, lam: float,
+    kn: float, h_ref: float, h_switch: float, code: int,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Flux through segments s0 .. s1-1 of a link in series (L to R), and dF/dP_L, dF/dP_R.
+
+    Segment k (length theta_k d, spacings H[0, k] at its mid-point, H[1, k]
+    and H[2, k] at its ends) carries F = c_k P_k-1 - g_k P_k
+    (:func:`segment`), the same F through every segment (mass conservation
+    at the steps, where P is continuous).  Eliminating the inner pressures
+    gives F in terms of P_L and P_R; the elimination runs from the
+    downstream end when the flow goes L -> R (ratios g / c <= 1 there), the
+    other way otherwise, so it never overflows.  D is taken at the link's
+    mean pressure; its derivative enters by forward differentiation.
+    """
+    pf = 0.5 * (pl + pr)
+    u, v, du, dv = 1.0, 0.0, 0.0, 0.0
+    for m in range(s1 - s0):
+        k = s1 - 1 - m if lam >= 0.0 else s0 + m
+        g, dg, c, dc, _ = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
+        if lam >= 0.0:  # P_k-1 = u' P_R + v' F from P_k = u P_R + v F
+            u, du = g * u / c, (dg * u + g * du) / c - g * u * dc / (c * c)
+            v, dv = (1.0 + g * v) / c, (dg * v + g * dv) / c - (1.0 + g * v) * dc / (c * c)
+        else:  # P_k = u' P_L - v' F from P_k-1 = u P_L - v F (u = 1, v = 0 at P_L)
+            u, du = c * u / g, (dc * u + c * du) / g - c * u * dg / (g * g)
+            v, dv = (c * v + 1.0) / g, (dc * v + c * dv) / g - (c * v + 1.0) * dg / (g * g)
+    if lam >= 0.0:  # P_L = u P_R + v F
+        F = (pl - u * pr) / v
+        fd = (-du * pr - F * dv) / v
+        return F, 1.0 / v + fd, -u / v + fd
+    F = (u * pl - pr) / v  # P_R = u P_L - v F
+    fd = (du * pl - F * dv) / v
+    return F, u / v + fd, -1.0 / v + fd
+
+
+@njit
+def profile_weight(pe: float) -> float:
+    """w(Pe) = (1 - B(Pe)) / Pe: the mean of the exponential profile between P0 and P1 is P0 + (P1 - P0) w.
+
+    The segment's exact solution with constant coefficients (what the
+    Scharfetter-Gummel flux assumes): w = 1/2 without convection, -> 0
+    when the flow sweeps the pressure change to the downstream end.
+    """
+    if abs(pe) < 1e-4:
+        return 0.5 - pe / 12.0
+    b, _ = bernoulli_signed(pe)
+    return (1.0 - b) / pe
+
+
+@njit
+def series_mean(
+    pl: float, pr: float, H: np.ndarray, theta: np.ndarray, pos: np.ndarray, s0: int, s1: int, inv_d: float,
+    lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float,
+) -> tuple[float, float]:  # fmt: skip
+    """Mean of P - 1 over a link's segments in series, and of (P - 1)(pos - arm0): each segment's exact profile.
+
+    The inner pressures come from the same elimination as
+    :func:`series_flux`, marched again with the flux known; pos (k,) are the
+    segments' mid-points along the link [m], the moment arm of each segment.
+    """
+    pf = 0.5 * (pl + pr)
+    F, _, _ = series_flux(pl, pr, H, theta, s0, s1, inv_d, lam, kn, h_ref, h_switch, code)
+    u, v = 1.0, 0.0
+    mean = moment = 0.0
+    near = pr if lam >= 0.0 else pl  # pressure at the end the march starts from
+    for m in range(s1 - s0):
+        k = s1 - 1 - m if lam >= 0.0 else s0 + m
+        g, _, c, _, pe = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
+        if lam >= 0.0:
+            u, v = g * u / c, (1.0 + g * v) / c
+            far = u * pr + v * F  # the segment's upstream (left) end
+            p0, p1 = far, near
+        else:
+            u, v = c * u / g, (c * v + 1.0) / g
+            far = u * pl - v * F  # the segment's downstream (right) end
+            p0, p1 = near, far
+        m0, m1 = p0 * H[1, k], p1 * H[2, k]  # the profile is exponential in m = P H
+        avg = (m0 + (m1 - m0) * profile_weight(pe)) / H[0, k] - 1.0
+        mean += theta[k] * avg
+        moment += theta[k] * avg * (pos[k] - arm0)
+        near = far
+    return mean, moment
+
+
+@njit
+def cut_corrections(
+    P: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray, seg_ptr: np.ndarray,
+    theta: np.ndarray, H: np.ndarray, pos: np.ndarray, nodes: np.ndarray, cross: np.ndarray, width: np.ndarray,
+    spacing: np.ndarray, axis: int, lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float,
+    cross0: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """What the cut links change in the integrals of P - 1, (P - 1)(s - arm0) and (P - 1)(c - cross0) [m2, m3, m3].
+
+    The node quadrature integrates P - 1 along each link by the trapezoid
+    rule; a cut link holds a step, and often the pressure's boundary layer
+    against it, inside it.  Its integral is the segments' exact profiles
+    (:func:`series_mean`), pieces in parallel, over the link length times
+    the strip ``width`` (the control volumes' extent across the link).
+    s is the coordinate along the link (x for axis 0, y for axis 1), c the
+    one across it, whose node coordinates are ``cross``.
+    """
+    load = moment = moment_cross = 0.0
+    for n in range(face.shape[0]):
+        i, j = face[n, 0], face[n, 1]
+        if axis == 0:
+            pr, inv_d, k, strip, arm = P[0, i + 1, j], 1.0 / spacing[i], i, width[j], cross[j] - cross0
+        else:
+            pr, inv_d, k, strip, arm = P[0, i, j + 1], 1.0 / spacing[j], j, width[i], cross[i] - cross0
+        pl = P[0, i, j]
+        length = nodes[k + 1] - nodes[k]
+        mean = mom = 0.0
+        for p in range(piece_ptr[n], piece_ptr[n + 1]):
+            a, b = series_mean(pl, pr, H, theta, pos, seg_ptr[p], seg_ptr[p + 1], inv_d, lam, kn, h_ref,
+                               h_switch, code, arm0)  # fmt: skip
+            mean += weight[p] * a
+            mom += weight[p] * b
+        trap = 0.5 * ((pl - 1.0) + (pr - 1.0))
+        trap_mom = 0.5 * ((pl - 1.0) * (nodes[k] - arm0) + (pr - 1.0) * (nodes[k + 1] - arm0))
+        load += strip * length * (mean - trap)
+        moment += strip * length * (mom - trap_mom)
+        moment_cross += strip * length * (mean - trap) * arm
+    return load, moment, moment_cross
+
+
+@njit
+def cut_fluxes(
+    P: np.ndarray, face_out: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray,
+    seg_ptr: np.ndarray, theta: np.ndarray, H: np.ndarray, spacing: np.ndarray, axis: int, lam: float,
+    kn: float, h_ref: float, h_switch: float, code: int,
+) -> None:  # fmt: skip
+    """Overwrite the fluxes (F, dF/dP_L, dF/dP_R) of the cut links: pieces in parallel, segments in series."""
+    for n in range(face.shape[0]):
+        i, j = face[n, 0], face[n, 1]
+        pl = P[0, i, j]
+        if axis == 0:
+            pr, inv_d = P[0, i + 1, j], 1.0 / spacing[i]
+        else:
+            pr, inv_d = P[0, i, j + 1], 1.0 / spacing[j]
+        F = dl = dr = 0.0
+        for p in range(piece_ptr[n], piece_ptr[n + 1]):
+            f, fl, fr = series_flux(pl, pr, H, theta, seg_ptr[p], seg_ptr[p + 1], inv_d, lam, kn, h_ref, h_switch, code)
+            F += weight[p] * f
+            dl += weight[p] * fl
+            dr += weight[p] * fr
+        face_out[0, i, j], face_out[1, i, j], face_out[2, i, j] = F, dl, dr
+
+
+@njit
+def fill_points(
+    q: np.ndarray, px: np.ndarray, py: np.ndarray, pivot_x: float, pivot_y: float, surface: np.ndarray,
+    disk: np.ndarray, face: np.ndarray, owner: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
+) -> None:  # fmt: skip
+    """H_k = max(z - (px_k - xp) pitch - (py_k - yp) roll + surface_k - z_d, floor) / h_ref at scattered points.
+
+    The disk height z_d of point k is that of the link face[owner[k]] in ``disk`` (1, n1, n2) [m].
+    """
+    z, pitch, roll = q[0], q[1], q[2]
+    for k in range(px.size):
+        n = owner[k]
+        h = z - (px[k] - pivot_x) * pitch - (py[k] - pivot_y) * roll + surface[k] - disk[0, face[n, 0], face[n, 1]]
+        H[k] = max(h, floor) * inv_href
+
+
+@njit
+def assemble(
+    P: np.ndarray,
+    Hx: np.ndarray,
+    Hy: np.ndarray,
+    Hxe: np.ndarray,
+    Hye: np.ndarray,
+    constants: tuple,
+    scratch: tuple,
+    cuts: tuple,
+) -> None:
     """Flux residual R(P; H) and its Jacobian in x- and y-line parts, at interior nodes.
 
-    P : (1, nx, ny); Hx : (1, nx-1, ny) x-face spacings; Hy : (1, nx, ny-1);
+    P : (1, nx, ny); Hx : (1, nx-1, ny) x-face spacings; Hy : (1, nx, ny-1); Hxe (2, nx-1, ny) and
+    Hye (2, nx, ny-1) the spacings at each link's two nodes, on the link's own surface;
     constants : :class:`AbsFilmConstants`; scratch : :class:`AbsFilmScratch`,
     whose R and Jacobian parts receive the result (and xface, yface the
-    fluxes F, dF/dP_L, dF/dP_R).  Dirichlet rows (the edges, P = 1) are not
-    written.
+    fluxes F, dF/dP_L, dF/dP_R); cuts : :class:`AbsFilmCuts`, whose links
+    replace the plain face fluxes (:func:`cut_fluxes`).  Dirichlet rows (the
+    edges, P = 1) are not written.
 
         R_ij = (F_i+1/2,j - F_i-1/2,j) dyc_j + (G_i,j+1/2 - G_i,j-1/2) dxc_i
     """
@@ -121,13 +366,38 @@ def assemble(P: np.ndarray, Hx: np.ndarray, Hy: np.ndarray, constants: tuple, sc
         inv = 1.0 / film.dx[i]
         for j in range(ny):
             xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux(
-                P[0, i, j], P[0, i + 1, j], Hx[0, i, j], inv, film.lamx, kn, h_ref, h_switch, code
+                P[0, i, j],
+                P[0, i + 1, j],
+                Hxe[0, i, j],
+                Hxe[1, i, j],
+                Hx[0, i, j],
+                inv,
+                film.lamx,
+                kn,
+                h_ref,
+                h_switch,
+                code,
             )
     for i in range(nx):
         for j in range(ny - 1):
             yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux(
-                P[0, i, j], P[0, i, j + 1], Hy[0, i, j], 1.0 / film.dy[j], film.lamy, kn, h_ref, h_switch, code
+                P[0, i, j],
+                P[0, i, j + 1],
+                Hye[0, i, j],
+                Hye[1, i, j],
+                Hy[0, i, j],
+                1.0 / film.dy[j],
+                film.lamy,
+                kn,
+                h_ref,
+                h_switch,
+                code,
             )
+    cut = AbsFilmCuts(*cuts)
+    cut_fluxes(P, xface, cut.xface, cut.xpiece_ptr, cut.xweight, cut.xseg_ptr, cut.xtheta, cut.xH, film.dx, 0,
+               film.lamx, kn, h_ref, h_switch, code)  # fmt: skip
+    cut_fluxes(P, yface, cut.yface, cut.ypiece_ptr, cut.yweight, cut.yseg_ptr, cut.ytheta, cut.yH, film.dy, 1,
+               film.lamy, kn, h_ref, h_switch, code)  # fmt: skip
     for i in range(1, nx - 1):
         w = film.dxc[i]
         for j in range(1, ny - 1):
@@ -174,9 +444,12 @@ def film_step(
     H_new: np.ndarray,
     Hx: np.ndarray,
     Hy: np.ndarray,
+    Hxe: np.ndarray,
+    Hye: np.ndarray,
     ct: float,
     constants: tuple,
     scratch: tuple,
+    cuts: tuple,
 ) -> None:
     """One linearly implicit midpoint step in place on P (the film at the old time on entry).
 
@@ -187,9 +460,9 @@ def film_step(
         (ct A H_new + J(P_n)/2) delta = -[ct A P_n (H_new - H_old) + R(P_n)]
 
     and sets P = P_n + delta: second order in time, one linear solve.
-    constants : :class:`AbsFilmConstants`; scratch : :class:`AbsFilmScratch`.
+    constants : :class:`AbsFilmConstants`; scratch : :class:`AbsFilmScratch`; cuts : :class:`AbsFilmCuts`.
     """
-    assemble(P, Hx, Hy, constants, scratch)
+    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
     film = AbsFilmConstants(*constants)
     buf = AbsFilmScratch(*scratch)
     nx, ny = P.shape[1], P.shape[2]
