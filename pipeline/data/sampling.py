@@ -195,7 +195,9 @@ def refinement_report(ds: xr.Dataset, names: list[str], dim: str, realization: s
         out[f"{name}_ci95_fitted"] = var(
             fitted, by_n, units, f"half-width of the fit of the standard error against n: {long_name}"
         )
-        through_last = np.log(halves[..., -1] / t_factor(n_total)) - log_sd_bias(n_total - 1) + 0.5 * np.log(n_total)
+        with np.errstate(divide="ignore"):  # a zero interval (a deterministic cell) has no line
+            last = np.log(halves[..., -1] / t_factor(n_total))
+        through_last = last - log_sd_bias(n_total - 1) + 0.5 * np.log(n_total)
         independent = fitted_half_widths(np.full(slope.shape, INDEPENDENT_SLOPE), through_last, samples)
         out[f"{name}_ci95_independent"] = var(
             independent, by_n, units, f"half-width of independent samples (slope -1/2 through n = N): {long_name}"
