@@ -66,6 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=("grid", "boundary", "multifidelity"), help="override the study's mode")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="override a base-scene value for every run, e.g. --set numerics.nx=101")  # fmt: skip
+    p.add_argument("--realizations", type=int, metavar="N",
+                   help="realisations per cell instead of the study file's (default 8 for a rough track)")  # fmt: skip
     p.add_argument("--ledger", type=Path, help="folder of per-run records (default OUTPUT_FOLDER/.ledger/NAME)")
     p.add_argument("--dry-run", action="store_true", help="count runs and done runs, estimate the cost, run nothing")
     p.add_argument("--plot", type=Path, help="PNG of the study (default: next to the netCDF)")
@@ -95,7 +97,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
     p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
     p.add_argument("--skip-bench", action="store_true", help="leave out the benchmark (about 3 minutes)")
-    p.add_argument("--skip-scene2", action="store_true", help="leave out scene 2 (flight, one run, four studies)")
+    p.add_argument(
+        "--skip-scene2",
+        action="store_true",
+        help="leave out scene 2 (flight, one run, four Table-I studies, regime map, statistics)",
+    )
+    p.add_argument("--quick", action="store_true",
+                   help="scene 2 without the statistics study (3 time steps x 16 realisations; the dt = 0.1 and "
+                        "0.05 us runs cost 2 and 4 times the default)")  # fmt: skip
     p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)
     return parser

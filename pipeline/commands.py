@@ -110,7 +110,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from pipeline.run.ledger import Ledger
     from pipeline.study.spec import lattice, load_study
 
-    study = load_study(args.study, args.overrides, mode=args.mode)
+    study = load_study(args.study, args.overrides, mode=args.mode, realizations=args.realizations)
     output = args.output or default_output(study)
     ledger_dir = args.ledger or default_ledger(study, output)
     workers = args.workers if args.workers is not None else (os.cpu_count() or 1)

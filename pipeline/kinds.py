@@ -26,7 +26,14 @@ class Adapter:
     study.  ``outputs`` declares every scalar of such a record once (units, long name, dtype and fill in a study
     dataset); ``study_outputs`` are kept by default, ``required_outputs`` always.  ``class_flag`` names the
     two-valued class a boundary or multi-fidelity study traces (None: those modes are refused).
+    ``category`` names the flag output whose share over a cell's realisations a study reports
+    (``<category>_fraction``, e.g. ``regime_fraction``; None: no such output).
     ``run_inputs(scene)`` reads what a run needs from files (the solver reads none).
+    ``check(scene)`` raises :class:`solver.params.ParameterError` for a scene whose parameters are valid one by
+    one but that cannot run (a grid too coarse for a pad): studies call it on every cell before any run.
+    ``stochastic(scene)`` is False where the kind's seed has no effect on the scene (a smooth disk): a study runs
+    such a cell once and gives that record to every realisation (the interval of its mean is then 0).
+    ``figures`` maps a product ("fly", "run", "study") or a study's ``figure`` name to its figure.
     """
 
     name: str
@@ -36,6 +43,9 @@ class Adapter:
     required_outputs: tuple[str, ...]
     impacts_kept: int
     class_flag: str | None
+    category: str | None
+    check: Callable[[Any], None]
+    stochastic: Callable[[Any], bool]
     run_inputs: Callable[[Any], dict[str, Any]]
     fly_dataset: Callable[[Any, Any, float], xr.Dataset]
     run_dataset: Callable[[Any, Any], xr.Dataset]
@@ -68,6 +78,27 @@ def _track_profile(scene: Any) -> dict[str, Any]:
     return {"profile": read_profile(scene.disk.profile_file)}
 
 
+def _no_check(scene: Any) -> None:
+    """Scenes whose parameters are valid one by one can run."""
+
+
+def _seed_free(scene: Any) -> bool:
+    """A kind without a stochastic input."""
+    return False
+
+
+def _abs_grid_check(scene: Any) -> None:
+    """The face's grid resolves every region (:func:`solver.abs.face.abs_grid`, a few ms)."""
+    from solver.abs.face import abs_grid
+
+    abs_grid(scene)
+
+
+def _rough_track(scene: Any) -> bool:
+    """The seed makes the track: a synthetic profile of RMS > 0 (a smooth disk or a measured profile ignore it)."""
+    return scene.disk.rms > 0.0 and not scene.disk.profile_file
+
+
 def _adapters() -> dict[str, Adapter]:
     from solver.abs.params import SERIES as ABS_SERIES
 
@@ -89,6 +120,9 @@ def _adapters() -> dict[str, Adapter]:
         required_outputs=("stable", "status"),
         impacts_kept=20,
         class_flag="stable",
+        category=None,
+        check=_no_check,
+        stochastic=_seed_free,
         run_inputs=_table_store,
         fly_dataset=data_rails.fly_dataset,
         run_dataset=data_rails.run_dataset,
@@ -112,13 +146,22 @@ def _adapters() -> dict[str, Adapter]:
         required_outputs=("status", "regime"),
         impacts_kept=0,
         class_flag=None,
+        category="regime",
+        check=_abs_grid_check,
+        stochastic=_rough_track,
         run_inputs=_track_profile,
         fly_dataset=lambda steady, scene, wall_time: data_abs.fly_dataset(steady, scene),
         run_dataset=data_abs.run_dataset,
         fly_report=reports.abs_fly,
         run_report=reports.abs_run,
         progress=reports.abs_progress,
-        figures={"fly": figures_abs.plot_fly, "run": figures_abs.plot_run, "study": figures_abs.plot_study},
+        figures={
+            "fly": figures_abs.plot_fly,
+            "run": figures_abs.plot_run,
+            "study": figures_abs.plot_study,
+            "regime_map": figures_abs.plot_regime_map,
+            "statistics": figures_abs.plot_statistics,
+        },  # fmt: skip
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
     )
@@ -150,11 +193,12 @@ def adapter_of(thing: Any) -> Adapter:
 def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Any:
     """The figure of a file written by this project: looked up by its ``scene_kind`` and ``product`` attributes.
 
-    ``overlay`` (a boundary study of the same axes) is drawn over a study of a kind with a class flag.
+    ``overlay`` (a boundary study of the same axes) is drawn over a study of a kind with a class flag.  A study
+    whose file names a ``figure`` (``attrs["figure"]``) gets that figure of its kind.
     """
     adapter = adapter_of(ds)
     product = ds.attrs.get("product", "")
-    figure = adapter.figures.get(product)
+    figure = adapter.figures.get(ds.attrs.get("figure") or product)
     if figure is None:
         raise ValueError(
             f"no figure for a {product or 'file without a product attribute'} of kind {adapter.name!r} "

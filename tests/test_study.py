@@ -495,17 +495,24 @@ def test_a_run_that_keeps_killing_workers_ends_as_a_recorded_failure(tmp_path):
 @pytest.mark.parametrize("path", sorted((ROOT / "studies").glob("*.toml")), ids=lambda p: p.name)
 def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
     tiny = ["numerics.nx=21", "numerics.nx_taper=5", "numerics.ny=5", "numerics.t_end=2e-5"]
-    if load_study(path).base.get("kind") == "abs":  # scene 2: a coarse face, 10 us runs
+    full = load_study(path)
+    if full.base.get("kind") == "abs":  # scene 2: a coarse face, 10 us runs, two realisations per cell
+        assert "realization" in full.dims and full.axis("realization").values[0] == 1
         tiny = ["numerics.nx=61", "numerics.ny=41", "numerics.refine=2", "numerics.t_end=1e-5",
                 "numerics.settle_time=5e-6", "numerics.dt=0.5e-6", "numerics.output_interval=1e-6"]  # fmt: skip
-        study = load_study(path, tiny)
+        if "numerics.dt" in {a.key for a in full.axes}:  # statistics.toml: its time steps, samples every 0.8 us
+            tiny = tiny[:5]
+        study = load_study(path, tiny, realizations=2)
         out = run_study(study, tmp_path / f"{study.name}.nc", workers=0, quiet=True)
-        assert out.computed == study.size and out.failed == 0
+        # realisations on a smooth disk (rms = 0) are one run
+        assert out.computed == len({c.run_id for c in study.cases()}) and out.computed + out.reused == study.size
+        assert out.failed == 0
         ds = open_result(tmp_path / f"{study.name}.nc")
         assert cf_errors(tmp_path / f"{study.name}.nc") == []
         assert set(ds["bouncing_3sigma"].dims) == set(study.dims) and (ds["status"].values == 0).all()
         assert np.isfinite(ds["bouncing_3sigma"].values).all() and (ds["mean_contact_force"].values >= 0).all()
         assert ds["flying_height"].dims[-1] == "time"
+        np.testing.assert_allclose(ds["regime_fraction"].sum("regimes").values, 1.0, rtol=1e-12)
         return
     axes = load_study(path).axes
     grid_axes = {a.key for a in axes} & {"numerics.nx", "numerics.ny"}

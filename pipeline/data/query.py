@@ -18,6 +18,7 @@ import xarray as xr
 
 from pipeline.config import ConfigError, parse_override
 from pipeline.data.netcdf import open_result
+from pipeline.data.sampling import report_text
 from pipeline.kinds import adapter_of
 from pipeline.study.spec import REALIZATION
 
@@ -63,17 +64,31 @@ def table(ds: xr.Dataset, where: list[str], variables: list[str] | None = None) 
         if name not in ds.data_vars:
             raise QueryError(f"--var {name}: no such variable (variables: {', '.join(map(str, ds.data_vars))})")
     stats = [n for n in names if f"{n}_mean" in cells]
-    if REALIZATION in cells.dims and stats:
-        return _mean_table(cells, stats)
+    category = adapter_of(ds).category
+    shares = category if category in names and f"{category}_fraction" in cells else None
+    if REALIZATION in cells.dims and (stats or shares):
+        return _mean_table(cells, stats, shares)
     frame = cells[names].to_dataframe()
     frame = frame[[n for n in names if n in frame.columns]]
     return frame.to_string()
 
 
-def _mean_table(cells: xr.Dataset, names: list[str]) -> str:
-    """One row per cell of the other axes: each variable as mean +- 95 % half-width over the realisations."""
+def _mean_table(cells: xr.Dataset, names: list[str], category: str | None = None) -> str:
+    """One row per cell of the other axes: each variable as mean +- 95 % half-width over the realisations, and
+    the shares of the category's values among them (``regime_fraction``: "intermittent_contact 0.75, ...")."""
     n = cells.sizes[REALIZATION]
     columns = {}
+    index = None
+    if category is not None:
+        fraction = cells[f"{category}_fraction"]
+        labels = fraction[f"{category}s"].values
+        cell_dims = [d for d in fraction.dims if d != f"{category}s"]
+        flat = fraction.transpose(*cell_dims, f"{category}s").values.reshape(-1, labels.size)
+        columns[f"{category} (fraction of realisations)"] = [
+            ", ".join(f"{lab} {f:.2f}" for lab, f in zip(labels, row, strict=True) if f > 0) or "none classified"
+            for row in flat
+        ]
+        index = cells[f"{category}_count"].to_series().index
     for name in names:
         mean = cells[f"{name}_mean"].to_series()
         half = cells[f"{name}_ci95"].to_series()
@@ -89,7 +104,10 @@ def query(path: str | Path, where: list[str], variables: list[str] | None = None
     ds = open_result(path)
     if "study" not in ds.attrs:
         raise QueryError(f"{path}: not a study dataset (written by 'hdi run')")
-    return table(ds, where, variables)
+    text = table(ds, where, variables)
+    if "se_slope_range" in ds and not where:
+        text += "\n\n" + report_text(ds)
+    return text
 
 
 def boundary_table(ds: xr.Dataset) -> str:

@@ -11,6 +11,19 @@ where none)), and:
   stable/unstable boundary on the boundary axis, from the grid (first
   crossing from the stable side) or from bisection (``boundary_method``).
 
+With a ``realization`` axis (n > 1 seeds of the stochastic input per cell), over the other axes:
+
+- ``<name>_mean`` and ``<name>_ci95``: each float output's mean over the realisations and the half-width of
+  its 95 % interval (Student's t, :mod:`pipeline.data.sampling`);
+- ``<category>_fraction`` (cells, ``<category>s``), for a kind with a category (kind "abs": ``regime_fraction``
+  over ``regimes`` = flying, intermittent_contact, sustained_contact, stuck, a string coordinate, written as
+  ``regimes_label`` in the file): the share of the cell's classified
+  realisations in each category (sums to 1 over the categories; NaN where none is classified),
+  ``<category>_count`` the classified realisations, and ``dominant_<category>`` the category with the largest
+  share (the first of equal shares; -1 where none);
+- for a study whose figure is "statistics": the refinement report along the first axis
+  (:func:`pipeline.data.sampling.refinement_report`).
+
 The dataset is a function of the ledger's records only, so a resumed study
 gives the same dataset as an uninterrupted one.
 """
@@ -25,6 +38,7 @@ import xarray as xr
 
 from pipeline.classify import NOT_RUN
 from pipeline.data.netcdf import var
+from pipeline.data.sampling import category_fractions, mean_interval, refinement_report
 from pipeline.kinds import adapter_of
 from pipeline.provenance import base_attrs
 from pipeline.study.spec import REALIZATION, Axis, Case, Study, study_attrs
@@ -103,7 +117,15 @@ def study_dataset(
     ds.attrs.update(study_attrs(study))
     ds.attrs.update(scene_kind=adapter.name, product="study")
     if REALIZATION in ds.dims and ds.sizes[REALIZATION] > 1:
-        ds = ds.merge(realization_statistics(ds, [n for n in study.variables if outputs[n].dtype is np.float64]))
+        floats = [n for n in study.variables if outputs[n].dtype is np.float64]
+        ds = ds.merge(realization_statistics(ds, floats))
+        if adapter.category is not None:
+            ds = ds.merge(category_statistics(ds[adapter.category], adapter.category))
+        if study.figure == "statistics":
+            kept = [n for n in STATISTICS_VARIABLES if n in floats]
+            report = refinement_report(ds, kept, study.axes[0].dim, REALIZATION)
+            ds = ds.merge(report)
+            ds.attrs.update(report.attrs)
     ds.attrs["runs"] = ran
     ds.attrs["failed_runs"] = int(np.count_nonzero(arrays["status"] == -1))
     if study.boundary is not None:
@@ -186,8 +208,8 @@ def _add_bisection(ds: xr.Dataset, study: Study, lines: list[dict[str, Any]]) ->
     ds.attrs["boundary_tolerance"] = study.boundary.tolerance
 
 
-#: Confidence level of the intervals of the mean over realisations.
-CONFIDENCE = 0.95
+#: Outputs a "statistics" study reports (interval shrinkage, refinement), where it keeps them.
+STATISTICS_VARIABLES = ("bouncing_3sigma", "mean_flying_height", "mean_contact_force", "contact_fraction")
 
 
 def realization_statistics(ds: xr.Dataset, names: list[str]) -> xr.Dataset:
@@ -197,20 +219,49 @@ def realization_statistics(ds: xr.Dataset, names: list[str]) -> xr.Dataset:
     (Student's t: the realisations are independent samples of the same run); NaN where fewer than two values
     are finite.  Variables ``<name>_mean`` and ``<name>_ci95``, on the study's other dimensions.
     """
-    from scipy.stats import t as student
-
     out = {}
     for name in names:
-        values = ds[name]
-        n = values.count(REALIZATION)
-        mean = values.mean(REALIZATION, skipna=True)
-        sd = values.std(REALIZATION, ddof=1, skipna=True)
-        factor = xr.apply_ufunc(lambda k: np.where(k > 1, student.ppf(0.5 + CONFIDENCE / 2, np.maximum(k - 1, 1)),
-                                                   np.nan), n)  # fmt: skip
-        half = factor * sd / np.sqrt(n.where(n > 0))
+        values = ds[name].transpose(..., REALIZATION)
+        mean, half, _n = mean_interval(values.values)
+        dims = values.dims[:-1]
         units, long_name = values.attrs.get("units", ""), values.attrs.get("long_name", name)
-        out[f"{name}_mean"] = mean.assign_attrs(units=units, long_name=f"mean over realisations of: {long_name}")
-        out[f"{name}_ci95"] = half.assign_attrs(
-            units=units, long_name=f"half-width of the 95 % confidence interval of the mean of: {long_name}"
+        out[f"{name}_mean"] = var(mean, dims, units, f"mean over realisations of: {long_name}")
+        out[f"{name}_ci95"] = var(
+            half, dims, units, f"half-width of the 95 % confidence interval of the mean of: {long_name}"
         )
     return xr.Dataset(out)
+
+
+def category_statistics(flags: xr.DataArray, name: str) -> xr.Dataset:
+    """``<name>_fraction`` (cells, ``<name>s``), ``<name>_count`` and ``dominant_<name>`` of a flag output over
+    the realisations; the categories are its non-negative ``flag_values``/``flag_meanings`` (the dimension is
+    the plural, since ``<name>`` is the per-run variable)."""
+    values = flags.attrs["flag_values"]
+    meanings = flags.attrs["flag_meanings"].split()
+    categories = [(int(v), m) for v, m in zip(values, meanings, strict=True) if v >= 0]
+    assert [v for v, _ in categories] == list(range(len(categories))), "categories must be numbered 0, 1, ..."
+    flags = flags.transpose(..., REALIZATION)
+    fractions, count = category_fractions(flags.values, len(categories))
+    dims = flags.dims[:-1]
+    labels = np.array([m for _, m in categories], dtype=object)
+    long_name = flags.attrs.get("long_name", name)
+    dominant = np.where(count > 0, np.argmax(np.nan_to_num(fractions, nan=-1.0), axis=-1), -1).astype(np.int8)
+    fraction = var(fractions, (*dims, f"{name}s"), "1",
+                   f"fraction of the classified realisations in each category of: {long_name}",
+                   comment="sums to 1 over the categories; NaN where no realisation is classified")  # fmt: skip
+    flag_values = np.array([-1, *range(len(categories))], dtype=np.int8)
+    return xr.Dataset(
+        {
+            f"{name}_fraction": fraction,
+            f"{name}_count": var(count.astype(np.int32), dims, "1", f"realisations classified by: {long_name}"),
+            f"dominant_{name}": var(
+                dominant,
+                dims,
+                "1",
+                f"category of most realisations (first of equal shares): {long_name}",
+                flag_values=flag_values,
+                flag_meanings="not_classified " + " ".join(labels),
+            ),
+        },  # fmt: skip
+        coords={f"{name}s": (f"{name}s", labels, {"long_name": f"category of {long_name}"})},
+    )

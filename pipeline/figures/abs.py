@@ -132,3 +132,111 @@ def plot_fly(ds: xr.Dataset) -> Figure:
         fontsize=10,
     )
     return fig
+
+
+#: Colours of the regimes of kind "abs" (flying, intermittent, sustained contact, stuck) on a regime map.
+REGIME_COLOURS = ("#9ecae1", "#fdd49e", "#fc8d59", "#b30000")
+
+
+def plot_regime_map(ds: xr.Dataset) -> Figure:
+    """Regime map over the study's first two axes: each cell coloured by its dominant regime over the
+    realisations (the share of that regime written in it), contours of the mean 3-sigma bouncing [nm] on top."""
+    plt = pyplot()
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.patches import Patch
+
+    xdim, ydim = [d for d in ds["dominant_regime"].dims][:2]
+    sx, xunit = _scale(ds[xdim])
+    sy, yunit = _scale(ds[ydim])
+    x, y = ds[xdim].values * sx, ds[ydim].values * sy
+    dominant = ds["dominant_regime"].transpose(ydim, xdim).values.astype(float)
+    dominant[dominant < 0] = np.nan
+    share = ds["regime_fraction"].max("regimes").transpose(ydim, xdim).values
+    labels = [str(v) for v in ds["regimes"].values]
+    fig, ax = plt.subplots(figsize=(7.5, 5.6), constrained_layout=True)
+    cmap = ListedColormap(REGIME_COLOURS[: len(labels)])
+    ax.pcolormesh(x, y, dominant, shading="nearest", cmap=cmap, norm=BoundaryNorm(np.arange(len(labels) + 1) - 0.5,
+                  cmap.N))  # fmt: skip
+    sigma = ds["bouncing_3sigma_mean"].transpose(ydim, xdim).values * 1e9
+    if np.isfinite(sigma).sum() >= 4 and len(x) > 1 and len(y) > 1:
+        low, high = np.nanpercentile(sigma, [5.0, 95.0])  # a single extreme cell does not take every level
+        levels = np.linspace(low, high, 6) if high > low else 6
+        lines = ax.contour(x, y, sigma, levels=levels, colors="k", linewidths=0.9)
+        ax.clabel(lines, fmt="%.3g nm", fontsize=8)
+    for j, yj in enumerate(y):
+        for i, xi in enumerate(x):
+            if np.isfinite(share[j, i]):
+                ax.annotate(f"{share[j, i]:.2f}", (xi, yj), ha="center", va="center", fontsize=8, color="0.15")
+    present = sorted({int(v) for v in dominant[np.isfinite(dominant)]})
+    ax.legend(handles=[Patch(color=REGIME_COLOURS[k], label=labels[k].replace("_", " ")) for k in present],
+              loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9,
+              title="dominant regime\n(number: its share)", title_fontsize=9)  # fmt: skip
+    for setter, dim, unit in ((ax.set_xlabel, xdim, xunit), (ax.set_ylabel, ydim, yunit)):
+        setter(f"{ds[dim].attrs.get('long_name', dim).split(' (')[0]} [{unit}]")
+    ax.set_xticks(x)
+    ax.set_yticks(y)
+    n_real = ds.sizes.get("realization", 1)
+    failed = int(np.count_nonzero(ds["status"].values == -1))
+    ax.set_title(f"{ds.attrs.get('title', '')}\n{n_real} realisations per cell; contours: mean 3$\\sigma$ bouncing "
+                 f"[nm]" + (f"; {failed} failed runs" if failed else ""), fontsize=10)  # fmt: skip
+    return fig
+
+
+def plot_statistics(ds: xr.Dataset) -> Figure:
+    """Sampling and refinement report of a "statistics" study (:func:`pipeline.data.sampling.refinement_report`).
+
+    One row per reported variable: the 95 % half-width from the first n realisations against n on log axes,
+    each cell's points with the fit of its standard error (slope in the legend, compare -1/2 and the range of
+    independent samples) and the half-widths independent samples would give (slope -1/2); the intervals of the mean at
+    each value of the refinement axis side by side; the paired differences to the reference with their intervals.
+    """
+    plt = pyplot()
+    dim = ds.attrs["refinement_axis"]
+    names = [str(v)[: -len("_se_slope")] for v in ds.data_vars if str(v).endswith("_se_slope")]
+    low, high = (float(v) for v in ds["se_slope_range"].values)
+    fig, axes = plt.subplots(len(names), 3, figsize=(13.0, 3.2 * len(names)), constrained_layout=True, squeeze=False)
+    sd, dunit = _scale(ds[dim])
+    if ds[dim].attrs.get("units") == "s":
+        sd, dunit = 1e6, "us"
+    values = ds[dim].values * sd
+    n = ds["samples"].values
+    others = [d for d in ds[f"{names[0]}_mean"].dims if d != dim]
+    for row, name in zip(axes, names, strict=True):
+        units = ds[name].attrs.get("units", "")
+        scale, shown = (1e9, "nm") if units == "m" else (1e3, "mN") if units == "N" else (1.0, units or "1")
+        cells = ds.stack(cell=others) if others else ds.expand_dims(cell=[0])
+        for c in range(cells.sizes["cell"]):
+            cell = cells.isel(cell=c)
+            for k, v in enumerate(values):
+                at = {dim: k}
+                half = cell[f"{name}_ci95_nested"].isel(at).values * scale
+                slope = float(cell[f"{name}_se_slope"].isel(at))
+                (line,) = row[0].loglog(n, half, "o", ms=3.5, label=f"{dim} = {v:g} {dunit}: slope {slope:+.2f}")
+                row[0].loglog(n, cell[f"{name}_ci95_fitted"].isel(at).values * scale, "-", color=line.get_color(),
+                              lw=1.0)  # fmt: skip
+                row[0].loglog(n, cell[f"{name}_ci95_independent"].isel(at).values * scale, ":",
+                              color=line.get_color(), lw=0.9)  # fmt: skip
+            mean = cell[f"{name}_mean"].values * scale
+            half = cell[f"{name}_ci95"].values * scale
+            row[1].errorbar(values, mean, yerr=half, fmt="o", capsize=4)
+            diff = cell[f"{name}_paired_difference"].values * scale
+            dhalf = cell[f"{name}_paired_difference_ci95"].values * scale
+            row[2].errorbar(values, diff, yerr=dhalf, fmt="s", capsize=4, color="tab:red")
+        row[0].set_title(f"{name}: 95 % half-width h$_n$ of the first n (line: fit, dotted: slope -1/2)",
+                         fontsize=9)  # fmt: skip
+        row[0].set_xlabel("realisations n")
+        row[0].set_ylabel(f"half-width [{shown}]")
+        row[0].legend(fontsize=7, frameon=False, title=f"fitted se slope; independent: [{low:.2f}, {high:.2f}]",
+                      title_fontsize=7)  # fmt: skip
+        row[1].set_title(f"{name}: mean and 95 % interval [{shown}]", fontsize=9)
+        row[2].set_title(f"paired difference to {dim} = {values[-1]:g} {dunit} (same seeds) [{shown}]", fontsize=9)
+        row[2].axhline(0.0, color="k", lw=0.6)
+        for ax in row[1:]:
+            ax.set_xscale("log", base=2)
+            ax.set_xticks(values, [f"{v:g}" for v in values])
+            ax.minorticks_off()
+            ax.set_xlabel(f"{dim} [{dunit}]")
+        for ax in row:
+            ax.grid(alpha=0.3, which="both")
+    fig.suptitle(f"{ds.attrs.get('title', '')} ({ds.sizes.get('realization', 1)} realisations per cell)", fontsize=11)
+    return fig

@@ -209,9 +209,11 @@ def execute(
     ``connect()`` returns the dask client; it is called once, when the first
     run has to be computed (a study found complete in the ledger starts no
     cluster).  ``connect=None`` runs every case in this process, one after
-    the other (for debugging and tiny studies).
+    the other (for debugging and tiny studies).  Cases with one run id (the realisations of a cell whose input
+    is not stochastic) are computed once: the others take its record as reused.
     """
     taken: list[tuple[Case, dict[str, Any], bool]] = []
+    sharing: dict[str, list[Case]] = {}  # run id -> the cases waiting for its run (the computed one first)
 
     def take(case: Case, record: dict[str, Any], reused: bool) -> None:
         taken.append((case, record, reused))
@@ -228,18 +230,25 @@ def execute(
                 return todo
             for case in batch:
                 record = ledger.finished(case.run_id)
-                if record is None:
-                    todo.append(case)
-                else:
+                if record is not None:
                     take(case, record, reused=True)
+                elif case.run_id in sharing:
+                    sharing[case.run_id].append(case)
+                else:
+                    sharing[case.run_id] = [case]
+                    todo.append(case)
+
+    def computed(case: Case, record: dict[str, Any]) -> None:
+        ledger.put(record)
+        take(case, record, reused=False)
+        for other in sharing.pop(case.run_id)[1:]:
+            take(other, record, reused=True)
 
     if connect is None:
         todo = proposals()
         while todo:
             for case in todo:
-                record = _finish(case, runner(case.scene_dict, case.run_id, study.impacts_kept), study)
-                ledger.put(record)
-                take(case, record, reused=False)
+                computed(case, _finish(case, runner(case.scene_dict, case.run_id, study.impacts_kept), study))
             todo = proposals()
         return taken
 
@@ -270,9 +279,7 @@ def execute(
                 record = fut.result()
             except Exception as err:  # KilledWorker, or the task could not be run at all
                 record = _failure(case, f"{type(err).__name__}: {err}")
-            record = _finish(case, record, study)
-            ledger.put(record)
-            take(case, record, reused=False)
+            computed(case, _finish(case, record, study))
             for new in submit(proposals()):
                 pending.add(new)
     except BaseException:
@@ -331,7 +338,7 @@ def run_study(
     n_workers = 1 if workers == 0 else (workers or os.cpu_count() or 1)
     expected = planner.expected()
     if isinstance(planner, GridPlanner):  # the progress counts the runs still to compute
-        expected = sum(ledger.finished(case.run_id) is None for case in planner.cases)
+        expected = len({case.run_id for case in planner.cases if ledger.finished(case.run_id) is None})
     progress = Progress(expected, n_workers, quiet=quiet)
 
     def seen(case: Case, record: dict[str, Any]) -> None:

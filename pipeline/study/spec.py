@@ -3,7 +3,10 @@
 A study file (TOML) holds
 
     [study]    name, title, scene (path relative to the study file), mode = "grid" | "boundary",
-               realizations = n (a last axis ``realization`` over the kind's seed: n samples per cell)
+               realizations = n (a last axis ``realization`` over the kind's seed: n samples per cell;
+               default DEFAULT_REALIZATIONS = 8 for a kind with a stochastic input, 1 for a deterministic one;
+               realizations = 1 runs the scene's own seed only and has to be written explicitly),
+               figure (a figure of the kind other than the default one, e.g. "regime_map", "statistics")
     [set]      scene values applied to every run (same keys as ``--set``)
     [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
                values = [...]  or  start, stop, step  (stop included)
@@ -39,7 +42,7 @@ from solver.params import ParameterError
 MODES = ("grid", "boundary", "multifidelity")
 
 ALLOWED = {
-    "study": {"name", "title", "scene", "mode", "description", "realizations"},
+    "study": {"name", "title", "scene", "mode", "description", "realizations", "figure"},
     "multifidelity": {"cheap", "axes"},
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
@@ -49,6 +52,11 @@ ALLOWED = {
 ROUND = 12  # decimals: axis values are rounded so that the same value always hashes the same
 #: Dimension of a study's realisations of a stochastic input (one seed each, see SceneKind.seed_key).
 REALIZATION = "realization"
+#: Realisations per cell of a study of a kind with a stochastic input whose file does not say how many:
+#: enough for a 95 % interval of the mean (t_{0.975, 7} = 2.36, 0.84 standard deviations half-width).
+DEFAULT_REALIZATIONS = 8
+#: Figures a study file may name (besides its kind's default study figure).
+STUDY_FIGURES = ("regime_map", "statistics")
 
 
 @dataclass(frozen=True)
@@ -102,6 +110,7 @@ class Study:
     overrides: tuple[str, ...] = field(default=())
     multifidelity: dict[str, Any] | None = None  # scene keys of the cheap pass (mode multifidelity)
     multifidelity_axes: tuple[str, ...] = ()  # axes along which cells are neighbours (default: all)
+    figure: str = ""  # a figure of the kind other than its default study figure
 
     @property
     def dims(self) -> tuple[str, ...]:
@@ -144,9 +153,15 @@ class Study:
 
 
 def make_case(study: Study, index: tuple[int, ...], coords: dict[str, Any], overrides: dict[str, Any]) -> Case:
+    """The case at ``index``; a realisation of a cell whose input is not stochastic gets the first seed (one run)."""
     data = apply_overrides(study.base, overrides, source=f"study {study.path}")
     label = ", ".join(f"{k} = {v!r}" for k, v in overrides.items())
     scene = scene_from_dict(data, source=f"{study.path} (case {label})")
+    if REALIZATION in coords and not adapter_of(scene).stochastic(scene):
+        seeds = study.axis(REALIZATION)
+        if overrides[seeds.key] != seeds.values[0]:
+            scene = scene_from_dict(apply_overrides(data, {seeds.key: seeds.values[0]}, source=str(study.path)),
+                                    source=f"{study.path} (case {label})")  # fmt: skip
     return Case(index, coords, overrides, scene, run_id(scene))
 
 
@@ -241,8 +256,10 @@ def load_study(
     path: str | Path,
     overrides: list[str] | None = None,
     mode: str | None = None,
+    realizations: int | None = None,
 ) -> Study:
-    """Read and check a study file; ``overrides`` are ``--set KEY=VALUE`` for the base scene."""
+    """Read and check a study file; ``overrides`` are ``--set KEY=VALUE`` for the base scene, ``realizations``
+    replaces the file's (or the default) number of realisations per cell."""
     path = Path(path)
     data = read_toml(path)
     if "study" not in data:
@@ -286,7 +303,9 @@ def load_study(
         dup = {s for s in seen if seen.count(s) > 1}
         if dup:
             raise _study_error(path, "[[axes]]", f"{attr} {sorted(dup)} used by more than one axis")
-    axes += _realization_axis(path, head.get("realizations", 1), base, axes)
+    kind = get_kind(base.get("kind", DEFAULT_KIND))
+    n_real = head.get("realizations", DEFAULT_REALIZATIONS if kind.seed_key else 1)
+    axes += _realization_axis(path, n_real if realizations is None else realizations, base, axes)
     for key in _flatten(fixed):
         if key in {a.key for a in axes} and key != get_kind(base.get("kind", DEFAULT_KIND)).seed_key:
             raise _study_error(path, "[set]", f"{key!r} is also an axis")
@@ -312,6 +331,11 @@ def load_study(
         None, ())  # fmt: skip
     if mode == "multifidelity" and cheap is None:
         raise _study_error(path, "mode = 'multifidelity'", "needs a [multifidelity.cheap] table of scene keys")
+    figure = head.get("figure", "")
+    if figure and (figure not in STUDY_FIGURES or figure not in adapter.figures):
+        allowed = [f for f in STUDY_FIGURES if f in adapter.figures]
+        raise _study_error(path, "[study] figure", f"{figure!r} is not a study figure of kind {adapter.name!r} "
+                           f"(allowed: {', '.join(allowed) or 'none'})")  # fmt: skip
 
     study = Study(
         name=name,
@@ -329,6 +353,7 @@ def load_study(
         overrides=tuple(cli),
         multifidelity=cheap,
         multifidelity_axes=cheap_axes,
+        figure=figure,
     )
     # Every value of every axis must make a valid scene on its own: check each axis value
     # against the base scene now, so that a bad value fails before any run.
@@ -338,17 +363,36 @@ def load_study(
                 scene_from_dict(apply_overrides(base, {a.key: v}, source=str(path)), source=str(path))
             except ParameterError as err:
                 raise _study_error(path, f"axis {a.key!r}", f"value {v!r} is not allowed: {err}") from None
+    if mode == "grid":
+        _check_cells(study, adapter)
     return study
+
+
+def _check_cells(study: Study, adapter: Any) -> None:
+    """Every cell's scene (the realisations of a cell share it, but for the seed) passes the kind's check."""
+    cell_axes = [a for a in study.axes if a.dim != REALIZATION]
+    for index in itertools.product(*(range(len(a.values)) for a in cell_axes)):
+        overrides = {a.key: a.values[i] for a, i in zip(cell_axes, index, strict=True)}
+        label = ", ".join(f"{k} = {v!r}" for k, v in overrides.items())
+        scene = scene_from_dict(apply_overrides(study.base, overrides, source=str(study.path)),
+                                source=f"{study.path} (cell {label})")  # fmt: skip
+        try:
+            adapter.check(scene)
+        except ParameterError as err:
+            raise _study_error(study.path, f"cell {label}", f"cannot run: {err}") from None
 
 
 def _realization_axis(path: Path, n: Any, base: dict[str, Any], axes: tuple[Axis, ...]) -> tuple[Axis, ...]:
     """``realizations = n``: a last axis over the kind's seed, n seeds from the scene's own (none for n = 1).
 
     Each realisation is one reproducible sample of the stochastic input (a rough track): study datasets then
-    give each cell's mean over the realisations with its 95 % confidence interval.
+    give each cell's mean over the realisations with its 95 % confidence interval.  A kind with a seed gets
+    DEFAULT_REALIZATIONS where the file does not say; a single sample (n = 1, no interval) must be asked for.
     """
     if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-        raise _study_error(path, "[study] realizations", f"{n!r} must be an integer >= 1")
+        raise _study_error(path, "[study] realizations", f"{n!r} must be an integer >= 1 (default "
+                           f"{DEFAULT_REALIZATIONS} for a scene with a stochastic input; 1 for one sample without "
+                           "an interval)")  # fmt: skip
     if n == 1:
         return ()
     kind = get_kind(base.get("kind", DEFAULT_KIND))
@@ -463,4 +507,5 @@ def study_attrs(study: Study) -> dict[str, str]:
         "overrides": " ".join(study.overrides),
         "config_hash": study.config_hash(),
         "mode": study.mode,
+        "figure": study.figure,
     }
