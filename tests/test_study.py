@@ -492,7 +492,18 @@ def test_a_run_that_keeps_killing_workers_ends_as_a_recorded_failure(tmp_path):
     assert (ds["status"].sel(alpha=[0.5, 0.75]).values == 0).all()
 
 
-@pytest.mark.parametrize("path", sorted((ROOT / "studies").glob("*.toml")), ids=lambda p: p.name)
+#: Study files whose smoke run takes a minute (pad_preload_map: 25 cells x 2 realisations, each a steady flight).
+SLOW_SMOKE = {"pad_preload_map.toml"}
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        pytest.param(p, marks=pytest.mark.slow) if p.name in SLOW_SMOKE else p
+        for p in sorted((ROOT / "studies").glob("*.toml"))
+    ],
+    ids=lambda p: p.name,
+)
 def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
     tiny = ["numerics.nx=21", "numerics.nx_taper=5", "numerics.ny=5", "numerics.t_end=2e-5"]
     full = load_study(path)

@@ -60,12 +60,16 @@ def t_factor(n: np.ndarray) -> np.ndarray:
 
 
 def mean_interval(values: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(mean, half-width h_n, n) of the finite values along ``axis``; h is NaN where n < 2."""
+    """(mean, half-width h_n, n) of the finite values along ``axis``; h is NaN where n < 2.
+
+    Equal samples (a deterministic cell's shared run) get h = 0 exactly, not the round-off of their mean.
+    """
     values = np.asarray(values, dtype=float)
     n = np.count_nonzero(np.isfinite(values), axis=axis)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean = np.nanmean(values, axis=axis) if values.size else np.full(n.shape, np.nan)
-        sd = np.nanstd(values, axis=axis, ddof=1)
+        equal = (np.nanmax(values, axis=axis) == np.nanmin(values, axis=axis)) if values.size else n < 0
+        sd = np.where(equal, 0.0, np.nanstd(values, axis=axis, ddof=1))
         half = t_factor(n) * sd / np.sqrt(np.where(n > 0, n, np.nan))
     return mean, half, n
 
