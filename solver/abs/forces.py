@@ -35,12 +35,13 @@ class SurfaceForces:
 
 @dataclass
 class Candidates:
-    """Cells near the disk for one time step: grid index, offset (surface - disk) [m], sigma [m], b (3, k)."""
+    """Cells near the disk for one step: grid index, offset (surface - disk) [m], sigma [m], b (3, k), area [m2]."""
 
     index: np.ndarray
     base: np.ndarray
     sigma: np.ndarray
     b: np.ndarray
+    area: np.ndarray
 
 
 class SurfaceModel:
@@ -65,6 +66,9 @@ class SurfaceModel:
         self.area = grid.area.ravel()
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
+        #: The Greenwood-Williamson law's constants as the kernels take them
+        #: (:func:`solver.kernels.surface.generalized_forces`).
+        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.mu, self.friction_arm, self.reach, REACH_SIGMAS)
 
     def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
         """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
@@ -83,7 +87,9 @@ class SurfaceModel:
         base, s_flat = offset.ravel(), sigma.ravel()
         d = base + q @ self.b
         near = np.flatnonzero(d < self.reach + REACH_SIGMAS * s_flat + margin)
-        return Candidates(near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]))
+        return Candidates(
+            near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]), self.area[near]
+        )
 
     def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:
         """Surface forces at attitude q from the candidate cells only."""

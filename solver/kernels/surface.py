@@ -257,3 +257,63 @@ def surface_pressures(
     for i in range(d.size):
         out[0, i], out[1, i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
         out[2, i], out[3, i] = adhesion_pressure(d[i], sigma[i], eps, adh_coef)
+
+
+@njit
+def generalized_forces(
+    offset: np.ndarray,
+    sigma: np.ndarray,
+    b: np.ndarray,
+    area: np.ndarray,
+    q: np.ndarray,
+    eps: float,
+    gw_coef: float,
+    adh_coef: float,
+    mu: float,
+    arm: np.ndarray,
+    reach: float,
+    reach_sigmas: float,
+    f: np.ndarray,
+    dfdq: np.ndarray,
+) -> tuple[float, float, int]:
+    """Generalized surface force f (3,) and its Jacobian dfdq (3, 3) at attitude q over k cells, in place.
+
+    Cell i has the separation d_i = offset_i + b_i . q [m] (b_i (3,) = d d_i / dq), roughness sigma_i [m]
+    and area A_i [m2]; with the Greenwood-Williamson contact p_c and adhesion p_a (:func:`contact_pressure`,
+    :func:`adhesion_pressure`) and Coulomb friction mu p_c acting through the lever ``arm`` (3,),
+
+        f = sum_i A_i (p_c + p_a) b_i + mu (sum_i A_i p_c) arm,
+        dfdq = sum_i A_i (p_c' + p_a') b_i b_i^T + mu arm (sum_i A_i p_c' b_i)^T.
+
+    Returns the contact and adhesion forces [N] and the number of cells within reach
+    (d_i < reach + reach_sigmas sigma_i).
+    """
+    friction = np.zeros(3)
+    f[:] = 0.0
+    dfdq[:, :] = 0.0
+    contact = 0.0
+    adhesion = 0.0
+    in_reach = 0
+    for i in range(offset.size):
+        d = offset[i] + b[0, i] * q[0] + b[1, i] * q[1] + b[2, i] * q[2]
+        s = sigma[i]
+        pc, dpc = contact_pressure(d, s, eps, gw_coef)
+        pa, dpa = adhesion_pressure(d, s, eps, adh_coef)
+        fc = pc * area[i]
+        fn = fc + pa * area[i]
+        w = dpc * area[i]
+        wn = w + dpa * area[i]
+        contact += fc
+        adhesion += pa * area[i]
+        if d < reach + reach_sigmas * s:
+            in_reach += 1
+        for r in range(3):
+            f[r] += fn * b[r, i]
+            friction[r] += w * b[r, i]
+            for c in range(3):
+                dfdq[r, c] += wn * b[r, i] * b[c, i]
+    for r in range(3):
+        f[r] += mu * contact * arm[r]
+        for c in range(3):
+            dfdq[r, c] += mu * arm[r] * friction[c]
+    return contact, adhesion, in_reach
