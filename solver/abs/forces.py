@@ -64,6 +64,9 @@ class SurfaceModel:
         X, Y = np.meshgrid(grid.x - s.pivot_x, grid.y - s.pivot_y, indexing="ij")
         self.b = np.stack([np.ones(X.size), -X.ravel(), -Y.ravel()])  # (3, n) d(spacing)/dq per node
         self.area = grid.area.ravel()
+        self.surface = grid.surface.ravel()  # the face's static surface [m]
+        self.b_max = np.abs(self.b).max(axis=1)  # largest |d spacing / dq| over the face
+        self.near = np.empty(self.area.size, dtype=np.int64)  # work array of :meth:`candidates`
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
         #: The Greenwood-Williamson law's constants as the kernels take them
@@ -78,17 +81,21 @@ class SurfaceModel:
         near = np.flatnonzero(d_flat < self.reach + REACH_SIGMAS * s_flat)
         return self._on(near, d_flat[near], s_flat[near])
 
-    def candidates(self, offset: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
-        """The cells within reach (plus ``margin``) at attitude q; offset = static surface - disk height (nx, ny).
+    def candidates(self, disk: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
+        """The cells within reach (plus ``margin``) at attitude q over the disk heights ``disk`` (nx, ny) [m].
 
         A time step's Newton iterations then evaluate only these cells
         (:meth:`forces_on`), instead of the whole face.
         """
-        base, s_flat = offset.ravel(), sigma.ravel()
-        d = base + q @ self.b
-        near = np.flatnonzero(d < self.reach + REACH_SIGMAS * s_flat + margin)
+        disk, s_flat = disk.ravel(), sigma.ravel()
+        count = ksurf.near_cells(self.surface, disk, s_flat, self.b, q, self.reach, REACH_SIGMAS, margin, self.near)
+        near = self.near[:count].copy()
         return Candidates(
-            near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]), self.area[near]
+            near,
+            self.surface[near] - disk[near],
+            s_flat[near],
+            np.ascontiguousarray(self.b[:, near]),
+            self.area[near],
         )
 
     def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:

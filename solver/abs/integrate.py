@@ -127,7 +127,6 @@ class AbsStepper:
         self.newton_max_iter = num.newton_max_iter
         self.tol = num.newton_tol * max(scene.suspension.preload, MIN_FORCE_SCALE)
         self.weights = np.array([1.0, 1.0 / scene.slider.length, 1.0 / scene.slider.length])
-        self.offset_base = film.grid.surface  # the face's static surface; the disk height is subtracted per step
         self.linearized = self.use_air and num.film_coupling == "linearized"
         self.repass_gap = num.film_repass if self.linearized else 0.0
         self.jacobian_every = num.film_jacobian_every
@@ -182,8 +181,8 @@ class AbsStepper:
             self.halvings += 1
             return self._advance(0.5 * h, depth + 1) or self._advance(0.5 * h, depth + 1)
 
-        margin = CANDIDATE_MARGIN + float(np.abs(h * v + 2.0 * h * h * a) @ np.abs(surface.b).max(axis=1))
-        cells = surface.candidates(self.offset_base - zd1, sd1, q, margin)
+        margin = CANDIDATE_MARGIN + float(np.abs(h * v + 2.0 * h * h * a) @ surface.b_max)
+        cells = surface.candidates(zd1, sd1, q, margin)
         f_old = self.f_air + self.sf.f
         q_path, a_new = q + h * v + 0.5 * h * h * a, a.copy()
         for film_pass in range(2):
