@@ -79,7 +79,7 @@ def _adapters() -> dict[str, Adapter]:
     from .data import rails as data_rails
     from .figures import abs as figures_abs
     from .figures import rails as figures_rails
-    from .figures.bench import plot_work_precision
+    from .figures.bench import plot_scene2_bench, plot_work_precision
 
     rails = Adapter(
         name="rails",
@@ -118,7 +118,12 @@ def _adapters() -> dict[str, Adapter]:
         fly_report=reports.abs_fly,
         run_report=reports.abs_run,
         progress=reports.abs_progress,
-        figures={"fly": figures_abs.plot_fly, "run": figures_abs.plot_run, "study": figures_abs.plot_study},
+        figures={
+            "fly": figures_abs.plot_fly,
+            "run": figures_abs.plot_run,
+            "study": figures_abs.plot_study,
+            "bench": plot_scene2_bench,
+        },
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
     )

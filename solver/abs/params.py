@@ -340,7 +340,7 @@ class AbsNumerics(Section):
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
     )
     film_coupling: str = quantity(
-        "two_pass",
+        "linearized",
         "",
         "film-structure coupling of a step: 'two_pass' advances the film along the predicted attitude path, then "
         "again along the corrected one; 'linearized' advances it once and corrects it to the corrected path with "
