@@ -81,7 +81,8 @@ def plot_scene2_bench(ds: xr.Dataset) -> Figure:
     Left: wall time per simulated millisecond of each timed setting (bars, with the speed-up over the baseline),
     today's solver measured in the same session (dashed) and the 5-s target (dotted).  Then one panel per run
     statistic: every track's value (dots, grey lines pair a track across settings) and the mean with its 95 % CI,
-    the fine reference's CI shaded.
+    the fine reference's CI shaded.  A setting whose CI is wider than 5 times the median CI (a track that went
+    into hard contact) is left off the scale and written in the panel.
     """
     plt = pyplot()
     stats = (("bouncing_3sigma", 1e9, "bouncing 3-sigma [nm]"), ("mean_contact_force", 1e6, "mean contact force [uN]"),
@@ -112,6 +113,7 @@ def plot_scene2_bench(ds: xr.Dataset) -> Figure:
         ci = ds[key + "_ci"].values.astype(float) * scale
         ax.errorbar(x, mean, yerr=ci, fmt="o", color="tab:orange", capsize=4, zorder=3, label="mean, 95 % CI")
         ax.axhspan(mean[-1] - ci[-1], mean[-1] + ci[-1], color="tab:green", alpha=0.15, label="reference CI")
+        _zoom_past_outliers(ax, x, mean, ci)
         ax.set_xticks(x, settings, rotation=15, fontsize=8)
         ax.set_ylabel(label)
         ax.set_title(f"{label.split(' [')[0]} over {ds.sizes['seed']} tracks", fontsize=10)
@@ -120,3 +122,18 @@ def plot_scene2_bench(ds: xr.Dataset) -> Figure:
     fig.suptitle(f"Scene 2 bench: {ds.attrs.get('baseline_solver', '')}; recommended "
                  f"{ds.attrs.get('recommended_setting', '')}", fontsize=10)  # fmt: skip
     return fig
+
+
+def _zoom_past_outliers(ax, x: np.ndarray, mean: np.ndarray, ci: np.ndarray) -> None:
+    """Limit the y axis to the settings whose CI is at most 5x the median CI; write the others' mean +- CI."""
+    finite = np.isfinite(mean) & np.isfinite(ci)
+    if not finite.any():
+        return
+    typical = ci[finite] <= 5.0 * np.median(ci[finite])
+    kept = np.flatnonzero(finite)[typical]
+    lo, hi = float(np.min(mean[kept] - ci[kept])), float(np.max(mean[kept] + ci[kept]))
+    pad = 0.25 * (hi - lo) if hi > lo else 0.05 * abs(hi) + 1e-30
+    ax.set_ylim(lo - pad, hi + pad)
+    for k in np.flatnonzero(finite)[~typical]:
+        ax.annotate(f"{mean[k]:.3g} +- {ci[k]:.2g}\n(off scale)", (x[k], hi + 0.6 * pad), ha="center", va="center",
+                    fontsize=8, color="tab:orange")  # fmt: skip
