@@ -83,13 +83,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_query)
 
     p = sub.add_parser(
-        "bench", help="speed against error: grids, time steps (fixed, adaptive) and air-bearing levels, scene 1"
+        "bench",
+        help="speed against error: grids, time steps and models (scene 1), settings against today's solver "
+        "and over track realisations (scene 2)",
     )
     p.add_argument("--scene", default=str(DEFAULT_SCENE))
     p.add_argument("--quick", action="store_true", help="fewer cases and a coarse reference (a smoke check)")
     p.add_argument("--repeats", type=int, default=3, help="timed repeats per case (median reported)")
     p.add_argument("-o", "--output", type=Path, help="netCDF file of the benchmark table")
     p.add_argument("--figure", type=Path, help="work-precision figure (PNG; needs --output)")
+    p.add_argument(
+        "--seeds", type=int, help="scene 2: track realisations of the accuracy comparison (default 8, 2 quick)"
+    )
+    p.add_argument("--baseline-ref", default="c3337da",
+                   help="scene 2: git ref of today's solver, timed in a temporary worktree ('' to skip)")  # fmt: skip
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs, Figure 17, into results/")

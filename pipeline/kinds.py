@@ -110,7 +110,7 @@ def _adapters() -> dict[str, Adapter]:
     from .data import rails as data_rails
     from .figures import abs as figures_abs
     from .figures import rails as figures_rails
-    from .figures.bench import plot_work_precision
+    from .figures.bench import plot_scene2_bench, plot_work_precision
 
     rails = Adapter(
         name="rails",
@@ -161,6 +161,7 @@ def _adapters() -> dict[str, Adapter]:
             "study": figures_abs.plot_study,
             "regime_map": figures_abs.plot_regime_map,
             "statistics": figures_abs.plot_statistics,
+            "bench": plot_scene2_bench,
         },  # fmt: skip
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},

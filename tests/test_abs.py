@@ -129,6 +129,15 @@ PARAMETER_ERRORS = {
         lambda d: d["numerics"].update(output_interval=0.3e-6),
         ["numerics.output_interval", "3e-07"],
     ),
+    "film_coupling not a coupling": (
+        lambda d: d["numerics"].update(film_coupling="one_pass"),
+        ["numerics.film_coupling", "'one_pass'", "'linearized'"],
+    ),
+    "film_jacobian_every below 1": (
+        lambda d: d["numerics"].update(film_jacobian_every=0),
+        ["numerics.film_jacobian_every", "0"],
+    ),
+    "film_repass negative": (lambda d: d["numerics"].update(film_repass=-1e-12), ["numerics.film_repass", "-1e-12"]),
     "unknown kind": (lambda d: d.update(kind="nonsense"), ["kind", "'nonsense'"]),
 }
 

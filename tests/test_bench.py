@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import cf_errors
+from conftest import SCENE2_FILE, cf_errors
 
 from pipeline.bench.rails import cost_at_error, observed_orders
 from pipeline.cli import main
@@ -51,3 +51,46 @@ def test_quick_bench_writes_its_table_and_figure(tmp_path, monkeypatch):
     assert png.stat().st_size > 10_000
     again = tmp_path / "again.png"  # `hdi plot` knows a bench file
     assert main(["plot", str(out), "-o", str(again)]) == 0 and again.stat().st_size > 10_000
+
+
+# scene 2 ---------------------------------------------------------------------------------------------------------
+
+
+def test_mean_ci_is_the_student_t_interval():
+    """Mean and 95 % CI half-width t_{0.975, n-1} s / sqrt(n): for 1, 2, 3 (s = 1) it is 4.3027 / sqrt(3)."""
+    from pipeline.bench.abs import mean_ci
+
+    mean, half = mean_ci(np.array([1.0, 2.0, 3.0]))
+    assert mean == 2.0
+    assert half == pytest.approx(4.302653 / math.sqrt(3.0), rel=1e-6, abs=0)  # t table, 2 degrees of freedom
+    assert math.isnan(mean_ci(np.array([5.0]))[1])
+
+
+def test_baseline_of_an_unknown_ref_is_skipped_with_its_reason(tmp_path):
+    """A ref git cannot check out leaves no timing and says why, instead of failing the bench."""
+    from pipeline.bench.abs import Baseline
+
+    baseline = Baseline("no-such-ref-0123456789", str(tmp_path / "scene.toml"), {})
+    try:
+        baseline.time_one_run()
+        assert baseline.walls == []
+        assert "skipped" in baseline.describe() and "no-such-ref-0123456789" in baseline.describe()
+    finally:
+        baseline.close()
+    assert Baseline("", "scene.toml", {}).describe() == "skipped: no baseline ref"
+
+
+@pytest.mark.slow
+def test_quick_scene2_bench_writes_its_table_and_figure(tmp_path):
+    """The scene-2 bench end to end (0.2-ms runs, 2 tracks), with HEAD as the baseline solver: timings, ratios, CIs."""
+    out, png = tmp_path / "bench2.nc", tmp_path / "bench2.png"
+    argv = ["bench", "--scene", str(SCENE2_FILE), "--quick", "--repeats", "1", "--baseline-ref", "HEAD"]
+    assert main([*argv, "-o", str(out), "--figure", str(png)]) == 0
+    ds = open_result(out)
+    assert cf_errors(out) == []
+    assert list(ds["timed"].values) == ["two_pass", "linearized", "linearized dt/2"]
+    assert float(ds["baseline_wall_per_step"]) > 0 and np.all(ds["setting_speedup"].values > 0)
+    assert "HEAD" in ds.attrs["baseline_solver"]
+    assert ds["bouncing_3sigma_by_seed"].shape == (5, 2) and np.all(ds["run_status"].values == 0)
+    assert np.all(ds["bouncing_3sigma_ci"].values > 0) and float(ds["mean_flying_height_diff"][-1]) == 0.0
+    assert png.stat().st_size > 10_000

@@ -1,36 +1,48 @@
-"""Benchmark of one scene-2 run (kind "abs"): cost per step and per simulated millisecond against error.
+"""Benchmark of scene-2 runs (kind "abs"): cost per step and per simulated millisecond against error.
 
-``hdi bench --scene studies/scenes/chen_bogy2007.toml``.  Every case runs the
-default 1-ms run (0.2 nm RMS track, adhesion, friction) on another grid or
-time step, timed: the median over ``repeats`` runs on one core (the steady
-flight is solved once per grid and left out), per step and per simulated
-millisecond, and the cost relative to the default setting measured in the
-same session, so ratios survive this machine's noise.
+``hdi bench --scene studies/scenes/chen_bogy2007.toml``.  Three parts, measured in one session so that ratios
+survive this machine's noise:
 
-Errors need a deterministic run: the rough track is split differently on
-every grid (each cell's resolved mean and unresolved RMS), so its 3-sigma
-is not a numerical quantity that converges.  The error run is a smooth
-disk and a 5 mm/s drop from steady flight, 200 us, compared with the
-reference case sample by sample (max |FH(t) - FH_ref(t)|), plus the steady
-flying height.  The rough run's 3-sigma is shown for information.
+1. Settings.  The default 1-ms run (0.2 nm RMS track, adhesion, friction) with each film coupling and time step of
+   ``SETTINGS``, timed here: the median over ``repeats`` runs on one core (the steady flight, solved once, is left
+   out).  Today's solver, a temporary ``git worktree`` of ``--baseline-ref``, times the same run in a subprocess,
+   one run per round between the rounds of the settings; each setting's cost is reported per step, per simulated
+   millisecond and as a ratio to that baseline.  Without git or the ref the ratio is skipped, and the bench says why.
+2. Accuracy over track realisations.  Every setting and a fine reference (``REFERENCE``: today's two-pass scheme at
+   dt / 2) run the 1-ms default on ``seeds`` tracks (disk.seed = 1 .. n).  A seed is the same track at any dt and
+   setting, so the runs pair: the mean and 95 % CI (Student t) of the bouncing 3-sigma, mean contact force and mean
+   flying height of each setting, and of its paired differences with the reference; a setting agrees with the
+   reference on a statistic when the CI of the differences contains 0.
+3. Grids and time steps (``CASES``), timed the same way, and their errors.  The rough track is split differently on
+   every grid (each cell's resolved mean and unresolved RMS), so its 3-sigma is not a numerical quantity that
+   converges; the deterministic error run is a smooth disk and a 5 mm/s drop from steady flight, 200 us, compared
+   with the reference case sample by sample (max |FH(t) - FH_ref(t)|), plus the steady flying height.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import shutil
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from pipeline.config import load_scene
 from pipeline.data.netcdf import var, write_netcdf
-from pipeline.provenance import base_attrs
+from pipeline.provenance import PROJECT_ROOT, base_attrs
 from solver.abs.integrate import simulate_abs, summarize
 from solver.abs.steady import fly_start
 
-#: (label, nx, ny, dt [s]) of the benchmark; the last one is the reference.
+#: (label, nx, ny, dt [s]) of the grid and time-step cases; the last one is the reference.
 CASES = (
     ("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6),
     ("coarse 81x67, dt 0.2 us", 81, 67, 0.2e-6),
@@ -42,36 +54,287 @@ CASES = (
 )
 QUICK = (("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6), ("reference 81x67, dt 0.2 us", 81, 67, 0.2e-6))
 
+#: (name, description, overrides, dt factor) of the compared settings, on the scene's grid and dt x factor.
+SETTINGS = (
+    ("two_pass", "today's scheme: two film solves per step", {"numerics.film_coupling": "two_pass"}, 1.0),
+    ("linearized", "one film solve per step, linearized correction", {"numerics.film_coupling": "linearized"}, 1.0),
+    ("linearized dt/2", "linearized at half the time step", {"numerics.film_coupling": "linearized"}, 0.5),
+)
+#: Compared over the tracks but not timed: the coupling converged at the default dt (the film re-advanced along
+#: the corrected path on every step), which shows the coupling error of each setting apart from dt's.
+CONVERGED = (
+    "converged coupling",
+    "the film re-advanced along the corrected path every step",
+    {"numerics.film_coupling": "linearized", "numerics.film_repass": 0.0},
+    1.0,
+)
+#: The fine reference of the accuracy runs (not timed).
+REFERENCE = (
+    "two_pass dt/2",
+    "fine reference: two-pass at half the time step",
+    {"numerics.film_coupling": "two_pass"},
+    0.5,
+)
+#: The setting the bench recommends (the scene default).
+RECOMMENDED = "linearized"
+#: Run statistics compared over the seeds, with their units.
+STATISTICS = {"bouncing_3sigma": "m", "mean_contact_force": "N", "mean_flying_height": "m"}
+#: Today's solver: the commit before the speed work.
+BASELINE_REF = "c3337da"
+
 #: The error run: a smooth disk (deterministic, no profile) and a 5 mm/s drop from steady flight.
-DISTURBANCE = ["disk.rms=0.0", "initial.zdot=-0.005", "numerics.t_end=2e-4", "numerics.settle_time=0.0"]
+DISTURBANCE = {"disk.rms": 0.0, "initial.zdot": -0.005, "numerics.t_end": 2e-4, "numerics.settle_time": 0.0}
+
+#: Runs the baseline's own solver in its worktree: argv = scene file, overrides (JSON), runs; prints JSON walls.
+BASELINE_SCRIPT = """
+import json, sys, time, tomllib
+from solver.kinds import scene_from_dict
+from solver.abs.integrate import simulate_abs
+from solver.abs.steady import fly_start
+
+def scene(path, overrides):
+    data = tomllib.loads(open(path).read())
+    for key, value in overrides.items():
+        section, _, name = key.partition(".")
+        data.setdefault(section, {})[name] = value
+    return scene_from_dict(data)
+
+path, overrides, runs = sys.argv[1], json.loads(sys.argv[2]), int(sys.argv[3])
+run = scene(path, overrides)
+steady = fly_start(run)
+dt = run.numerics.dt
+simulate_abs(scene(path, {**overrides, "numerics.t_end": 10 * dt, "numerics.settle_time": 0.0}), steady)  # compile
+walls, steps = [], 0
+for _ in range(runs):
+    t0 = time.perf_counter()
+    result = simulate_abs(run, steady)
+    walls.append(time.perf_counter() - t0)
+    steps = result.work["steps"]
+print(json.dumps({"walls": walls, "steps": steps, "status": result.status}))
+"""
 
 
 def run_bench(args: argparse.Namespace) -> int:
-    cases = QUICK if args.quick else CASES
-    t_end = "2e-4" if args.quick else "1e-3"
-    settle = "5e-5" if args.quick else "2e-4"
+    quick = args.quick
+    run = {"numerics.t_end": 2e-4, "numerics.settle_time": 5e-5} if quick else {}
+    repeats = max(1, args.repeats)
+    seeds = max(1, getattr(args, "seeds", None) or (2 if quick else 8))
+    settings = time_settings(args.scene, run, repeats, getattr(args, "baseline_ref", BASELINE_REF))
+    accuracy = seed_statistics(args.scene, run, seeds)
+    rows = grid_cases(args.scene, QUICK if quick else CASES, quick, repeats)
+    if args.output:
+        ds = bench_dataset(rows, settings, accuracy)
+        print(f"wrote {write_netcdf(ds, args.output)}")
+        if getattr(args, "figure", None):
+            from pipeline.figures.bench import plot_scene2_bench
+            from pipeline.figures.common import save_figure
+
+            print(f"wrote {save_figure(plot_scene2_bench(ds), args.figure, dpi=130)}")
+    return 0
+
+
+# 1. settings against today's solver ----------------------------------------------------------------------------
+
+
+def setting_overrides(scene_path: str, run: dict[str, Any], overrides: dict[str, Any], dt_factor: float):
+    """A setting's overrides on top of ``run``: its own, and dt (and the output interval) scaled by dt_factor."""
+    dt = load_scene(scene_path, run).numerics.dt * dt_factor
+    return {**run, **overrides, "numerics.dt": dt}
+
+
+def time_settings(scene_path: str, run: dict[str, Any], repeats: int, baseline_ref: str) -> dict[str, Any]:
+    """Median wall time per run of each setting and of the baseline solver, in interleaved rounds."""
+    overrides = {name: setting_overrides(scene_path, run, o, f) for name, _, o, f in SETTINGS}
+    scenes = {name: load_scene(scene_path, o) for name, o in overrides.items()}
+    steady = fly_start(scenes[SETTINGS[0][0]])
+    walls: dict[str, list[float]] = {name: [] for name in scenes}
+    steps: dict[str, int] = {}
+    for name, scene in scenes.items():  # load (or compile) the kernels outside the timing
+        short = {"numerics.t_end": 10 * scene.numerics.dt, "numerics.settle_time": 0.0}
+        simulate_abs(load_scene(scene_path, overrides[name] | short), steady=steady)
+    baseline = Baseline(baseline_ref, scene_path, run)
+    try:
+        for _ in range(repeats):
+            baseline.time_one_run()
+            for name, scene in scenes.items():
+                t0 = time.perf_counter()
+                result = simulate_abs(scene, steady=steady)
+                walls[name].append(time.perf_counter() - t0)
+                steps[name] = result.work["steps"]
+    finally:
+        baseline.close()
+    t_ms = scenes[SETTINGS[0][0]].numerics.t_end / 1e-3
+    base_wall = statistics.median(baseline.walls) if baseline.walls else math.nan
+    base_step = base_wall / baseline.steps if baseline.walls else math.nan
+    print(f"\nsettings: {t_ms:g}-ms default run, median of {repeats} on one core; baseline: {baseline.describe()}")
+    print(f"{'setting':18s} {'steps':>6s} {'ms/step':>8s} {'s/ms':>7s} {'x baseline':>10s}")
+    if baseline.walls:
+        print(f"{'baseline':18s} {baseline.steps:6d} {base_step * 1e3:8.3f} {base_wall / t_ms:7.2f} {1.0:10.2f}")
+    out = {"name": [], "wall_per_run": [], "wall_per_step": [], "steps": [], "speedup": []}
+    for name in scenes:
+        wall = statistics.median(walls[name])
+        speedup = base_wall / wall
+        out["name"].append(name)
+        out["wall_per_run"].append(wall)
+        out["wall_per_step"].append(wall / steps[name])
+        out["steps"].append(steps[name])
+        out["speedup"].append(speedup)
+        print(f"{name:18s} {steps[name]:6d} {wall / steps[name] * 1e3:8.3f} {wall / t_ms:7.2f} {1.0 / speedup:10.2f}")
+    out.update(t_ms=t_ms, baseline_wall=base_wall, baseline_step=base_step, baseline=baseline.describe())
+    return out
+
+
+class Baseline:
+    """Today's solver in a temporary git worktree of ``ref``, timed in a subprocess (one run per call).
+
+    ``walls`` stays empty, and ``reason`` says why, when git, the ref or the run is unavailable.
+    """
+
+    def __init__(self, ref: str, scene_path: str, run: dict[str, Any]) -> None:
+        self.ref, self.walls, self.steps, self.commit, self.reason = ref, [], 0, "", ""
+        self.scene_path, self.run = str(Path(scene_path).resolve()), run
+        self.tree: Path | None = None
+        if not ref:
+            self.reason = "no baseline ref"
+            return
+        git = shutil.which("git")
+        if git is None:
+            self.reason = "git is not available"
+            return
+        tree = Path(tempfile.mkdtemp(prefix="hdi-baseline-")) / "tree"
+        done = subprocess.run([git, "worktree", "add", "--detach", str(tree), ref], cwd=PROJECT_ROOT,
+                              capture_output=True, text=True)  # fmt: skip
+        if done.returncode != 0:
+            self.reason = f"git worktree add {ref} failed: {done.stderr.strip().splitlines()[-1:]}"
+            return
+        self.tree = tree
+        self.commit = subprocess.run(
+            [git, "rev-parse", "HEAD"], cwd=tree, capture_output=True, text=True
+        ).stdout.strip()
+
+    def time_one_run(self) -> None:
+        if self.tree is None or self.reason:
+            return
+        done = subprocess.run(
+            [sys.executable, "-c", BASELINE_SCRIPT, self.scene_path, json.dumps(self.run), "1"],
+            cwd=self.tree, env=_env_for(self.tree), capture_output=True, text=True,
+        )  # fmt: skip
+        try:
+            report = json.loads(done.stdout.strip().splitlines()[-1])
+        except (IndexError, json.JSONDecodeError):
+            self.reason = f"the baseline run failed: {(done.stderr.strip().splitlines() or ['no output'])[-1]}"
+            return
+        self.walls.extend(report["walls"])
+        self.steps = report["steps"]
+
+    def describe(self) -> str:
+        if self.walls:
+            return f"{self.ref} ({self.commit[:10]}) in a git worktree, timed in a subprocess"
+        return f"skipped: {self.reason}"
+
+    def close(self) -> None:
+        if self.tree is not None:
+            subprocess.run(["git", "worktree", "remove", "--force", str(self.tree)], cwd=PROJECT_ROOT,
+                           capture_output=True)  # fmt: skip
+            shutil.rmtree(self.tree.parent, ignore_errors=True)
+            self.tree = None
+
+
+def _env_for(tree: Path) -> dict[str, str]:
+    """The environment of a subprocess that imports the solver of ``tree`` (not this checkout's)."""
+    import os
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(tree)
+    return env
+
+
+# 2. accuracy over track realisations ---------------------------------------------------------------------------
+
+
+def mean_ci(values: np.ndarray) -> tuple[float, float]:
+    """Mean and the half-width of its 95 % confidence interval (Student t; nan for fewer than 2 values)."""
+    from scipy.stats import t as student
+
+    values = np.asarray(values, dtype=float)
+    n = values.size
+    if n < 2:
+        return float(values.mean()) if n else math.nan, math.nan
+    return float(values.mean()), float(student.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
+
+
+def seed_statistics(scene_path: str, run: dict[str, Any], seeds: int) -> dict[str, Any]:
+    """STATISTICS of every setting and of the reference on tracks 1 .. seeds, paired with the reference."""
+    everything = (*SETTINGS, CONVERGED, REFERENCE)
+    names = [s[0] for s in everything]
+    values = {name: {key: np.full(seeds, np.nan) for key in STATISTICS} for name in names}
+    status = {name: np.zeros(seeds, dtype=int) for name in names}
+    steady = None
+    for k in range(seeds):
+        for name, _, overrides, factor in everything:
+            scene = load_scene(
+                scene_path, {**setting_overrides(scene_path, run, overrides, factor), "disk.seed": k + 1}
+            )
+            steady = steady or fly_start(scene)
+            result = simulate_abs(scene, steady=steady)
+            status[name][k] = result.status
+            if result.status == 0:
+                summary = summarize(result, scene)
+                for key in STATISTICS:
+                    values[name][key][k] = summary[key]
+    ref, today = REFERENCE[0], SETTINGS[0][0]
+    print(f"\naccuracy over {seeds} tracks (disk.seed 1..{seeds}): mean +- 95 % CI")
+    print(f"{'setting':24s} {'3-sigma [nm]':>24s} {'contact force [uN]':>24s} {'mean FH [nm]':>24s}")
+    scale = {"bouncing_3sigma": 1e9, "mean_contact_force": 1e6, "mean_flying_height": 1e9}
+    table: dict[str, Any] = {"values": values, "status": status, "names": names, "seeds": seeds}
+    for name in names:
+        cells = []
+        for key in STATISTICS:
+            mean, ci = mean_ci(values[name][key])
+            table[(name, key)] = (mean, ci)
+            table[(name, key, ref)] = mean_ci(values[name][key] - values[ref][key])
+            table[(name, key, today)] = mean_ci(values[name][key] - values[today][key])
+            cells.append(f"{mean * scale[key]:9.4f} +- {ci * scale[key]:7.4f}")
+        print(f"{name:24s} " + " ".join(f"{c:>24s}" for c in cells))
+    print("paired differences (same track), mean +- 95 % CI, and whether the CI contains 0")
+    for other in (ref, today):
+        for name in names:
+            if name in (other, ref if other == today else ""):
+                continue
+            cells = []
+            for key in STATISTICS:
+                diff, diff_ci = table[(name, key, other)]
+                agree = "yes" if abs(diff) <= diff_ci else ("n/a" if math.isnan(diff_ci) else "NO")
+                cells.append(f"{diff * scale[key]:+8.4f} +- {diff_ci * scale[key]:7.4f} {agree:>3s}")
+            print(f"{name + ' - ' + other:24s} " + " ".join(f"{c:>24s}" for c in cells))
+    return table
+
+
+# 3. grids and time steps ---------------------------------------------------------------------------------------
+
+
+def grid_cases(scene_path: str, cases, quick: bool, repeats: int) -> list[dict[str, Any]]:
+    """Time every grid / time-step case, run its error run and compare both with the last (reference) case."""
+    t_end = 2e-4 if quick else 1e-3
+    settle = 5e-5 if quick else 2e-4
     rows = []
-    print(f"{'case':30s} {'nodes':>6s} {'steps':>6s} {'ms/step':>8s} {'s/ms':>7s} {'FH0 [nm]':>9s} "
+    print(f"\n{'case':30s} {'nodes':>6s} {'steps':>6s} {'ms/step':>8s} {'s/ms':>7s} {'FH0 [nm]':>9s} "
           f"{'meanFH':>8s} {'3sig [nm]':>9s} {'Fc [uN]':>8s}")  # fmt: skip
     for label, nx, ny, dt in cases:
-        grid = [
-            f"numerics.nx={nx}",
-            f"numerics.ny={ny}",
-            f"numerics.dt={dt}",
-            f"numerics.output_interval={max(1, round(1e-6 / dt)) * dt}",
-        ]
-        scene = load_scene(args.scene, grid + [f"numerics.t_end={t_end}", f"numerics.settle_time={settle}"])
+        grid = {"numerics.nx": nx, "numerics.ny": ny, "numerics.dt": dt,
+                "numerics.output_interval": max(1, round(1e-6 / dt)) * dt}  # fmt: skip
+        scene = load_scene(scene_path, grid | {"numerics.t_end": t_end, "numerics.settle_time": settle})
         steady = fly_start(scene)
         is_reference = label.startswith("reference")
         walls = []
-        for _ in range(1 if is_reference else max(1, args.repeats)):
+        for _ in range(1 if is_reference else repeats):
             t0 = time.perf_counter()
             result = simulate_abs(scene, steady=steady)
             walls.append(time.perf_counter() - t0)
         s = summarize(result, scene)
         wall = statistics.median(walls)
         steps = result.work["steps"]
-        probe = load_scene(args.scene, grid + DISTURBANCE)
+        probe = load_scene(scene_path, grid | DISTURBANCE)
         drop = simulate_abs(probe, steady=fly_start(probe))
         row = {
             "case": label, "nx": nx, "ny": ny, "dt": dt, "nodes": nx * ny, "steps": steps,
@@ -104,33 +367,79 @@ def run_bench(args: argparse.Namespace) -> int:
         r["cost_ratio"] = r["wall_per_run"] / base["wall_per_run"]
         print(f"{r['case']:30s} {r['steady_fh_error'] * 1e9:12.5f} {r['drop_error'] * 1e9:13.5f} "
               f"{r['drop_excursion'] * 1e9:9.4f} {100 * r['bouncing_error']:9.2f} {r['cost_ratio']:7.2f}")  # fmt: skip
-    if args.output:
-        ds = xr.Dataset(
-            {
-                key: var([r[key] for r in rows], ("case",), units, key.replace("_", " "))
-                for key, units in (
-                    ("nodes", "1"),
-                    ("steps", "1"),
-                    ("dt", "s"),
-                    ("wall_per_run", "s"),
-                    ("wall_per_step", "s"),
-                    ("wall_per_ms", "s"),
-                    ("steady_flying_height", "m"),
-                    ("mean_flying_height", "m"),
-                    ("bouncing_3sigma", "m"),
-                    ("mean_contact_force", "N"),
-                    ("steady_fh_error", "m"),
-                    ("mean_fh_error", "m"),
-                    ("bouncing_error", "1"),
-                    ("cost_ratio", "1"),
-                    ("halvings", "1"),
-                )  # fmt: skip
-            },
-            coords={"case": ("case", np.array([r["case"] for r in rows]), {"long_name": "benchmark case"})},
-        )
-        ds.attrs.update(base_attrs("Scene 2 benchmark: cost per step and per simulated ms against error"),
-                        scene_kind="abs", product="bench")  # fmt: skip
-        ds.attrs["reference"] = ref["case"]
-        ds.attrs["baseline"] = base["case"]
-        print(f"wrote {write_netcdf(ds, args.output)}")
-    return 0
+    for r in rows:
+        r["reference_case"], r["baseline_case"] = ref["case"], base["case"]
+    return rows
+
+
+# the file ------------------------------------------------------------------------------------------------------
+
+
+def bench_dataset(rows: list[dict[str, Any]], settings: dict[str, Any], accuracy: dict[str, Any]) -> xr.Dataset:
+    """The three parts on the dimensions ``case`` (grids), ``setting`` (timed and compared) and ``seed``."""
+    data = {
+        key: var([r[key] for r in rows], ("case",), units, key.replace("_", " "))
+        for key, units in (
+            ("nodes", "1"),
+            ("steps", "1"),
+            ("dt", "s"),
+            ("wall_per_run", "s"),
+            ("wall_per_step", "s"),
+            ("wall_per_ms", "s"),
+            ("steady_flying_height", "m"),
+            ("mean_flying_height", "m"),
+            ("bouncing_3sigma", "m"),
+            ("mean_contact_force", "N"),
+            ("steady_fh_error", "m"),
+            ("drop_error", "m"),
+            ("mean_fh_error", "m"),
+            ("bouncing_error", "1"),
+            ("cost_ratio", "1"),
+            ("halvings", "1"),
+        )  # fmt: skip
+    }
+    timed = settings["name"]
+    t_ms = settings["t_ms"]
+    data["setting_wall_per_step"] = var(settings["wall_per_step"], ("timed",), "s", "median wall time per step")
+    data["setting_wall_per_ms"] = var(np.array(settings["wall_per_run"]) / t_ms, ("timed",), "s",
+                                      "median wall time per simulated millisecond")  # fmt: skip
+    data["setting_speedup"] = var(settings["speedup"], ("timed",), "1",
+                                  "baseline wall time per run / this setting's (same session)")  # fmt: skip
+    data["baseline_wall_per_step"] = var(settings["baseline_step"], (), "s",
+                                         "median wall time per step of the baseline solver (today's)")  # fmt: skip
+    data["baseline_wall_per_ms"] = var(settings["baseline_wall"] / t_ms, (), "s",
+                                       "median wall time per simulated millisecond of the baseline solver")  # fmt: skip
+    names = accuracy["names"]
+    ref, today = REFERENCE[0], SETTINGS[0][0]
+    for key, units in STATISTICS.items():
+        long = key.replace("_", " ")
+        data[key + "_by_seed"] = var([accuracy["values"][n][key] for n in names], ("setting", "seed"), units, long)
+        for suffix, entry, index, what in (
+            ("mean", (), 0, "mean over the tracks"), ("ci", (), 1, "95 % CI half-width of the mean"),
+            ("diff", (ref,), 0, "mean paired difference with the reference"),
+            ("diff_ci", (ref,), 1, "95 % CI half-width of the paired difference with the reference"),
+            ("diff_today", (today,), 0, f"mean paired difference with {today}"),
+            ("diff_today_ci", (today,), 1, f"95 % CI half-width of the paired difference with {today}"),
+        ):  # fmt: skip
+            values = [accuracy[(n, key, *entry)][index] for n in names]
+            data[f"{key}_{suffix}"] = var(values, ("setting",), units, f"{long}: {what}")
+    data["run_status"] = var([accuracy["status"][n] for n in names], ("setting", "seed"), "1", "run status (0: ok)")
+    ds = xr.Dataset(
+        data,
+        coords={
+            "case": ("case", np.array([r["case"] for r in rows]), {"long_name": "grid and time-step case"}),
+            "timed": ("timed", np.array(timed), {"long_name": "timed setting"}),
+            "setting": ("setting", np.array(names), {"long_name": "compared setting (the last is the reference)"}),
+            "seed": ("seed", np.arange(1, accuracy["seeds"] + 1), {"long_name": "disk.seed of the track"}),
+        },
+    )
+    ds.attrs.update(base_attrs("Scene 2 benchmark: cost per step and per simulated ms against error"),
+                    scene_kind="abs", product="bench")  # fmt: skip
+    ds.attrs["reference"] = rows[-1]["reference_case"]
+    ds.attrs["baseline"] = rows[-1]["baseline_case"]
+    ds.attrs["baseline_solver"] = settings["baseline"]
+    ds.attrs["accuracy_reference"] = REFERENCE[0]
+    ds.attrs["recommended_setting"] = RECOMMENDED
+    ds.attrs["settings"] = "; ".join(f"{name}: {what}" for name, what, _, _ in (*SETTINGS, CONVERGED, REFERENCE))
+    ds.attrs["simulated_ms"] = t_ms
+    return ds

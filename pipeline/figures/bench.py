@@ -1,4 +1,4 @@
-"""The work-precision figure of a scene-1 bench file."""
+"""The figures of the bench files: work-precision of scene 1, settings against today's solver of scene 2."""
 
 from __future__ import annotations
 
@@ -73,3 +73,67 @@ def plot_work_precision(ds: xr.Dataset) -> Figure:
     fig.legend(handles, labels, loc="outside lower center", ncol=4, fontsize=8)
     fig.suptitle(f"Scene 1 speed against error (reference {ds.attrs.get('reference', '')})", fontsize=11)
     return fig
+
+
+def plot_scene2_bench(ds: xr.Dataset) -> Figure:
+    """The scene-2 bench: cost of each setting against today's solver, and its statistics over the tracks.
+
+    Left: wall time per simulated millisecond of each timed setting (bars, with the speed-up over the baseline),
+    today's solver measured in the same session (dashed) and the 5-s target (dotted).  Then one panel per run
+    statistic: every track's value (dots, grey lines pair a track across settings) and the mean with its 95 % CI,
+    the fine reference's CI shaded.  A setting whose CI is wider than 5 times the median CI (a track that went
+    into hard contact) is left off the scale and written in the panel.
+    """
+    plt = pyplot()
+    stats = (("bouncing_3sigma", 1e9, "bouncing 3-sigma [nm]"), ("mean_contact_force", 1e6, "mean contact force [uN]"),
+             ("mean_flying_height", 1e9, "mean flying height [nm]"))  # fmt: skip
+    fig, axes = plt.subplots(1, 4, figsize=(17, 5.0), layout="constrained")
+    ax = axes[0]
+    timed = [str(s) for s in ds["timed"].values]
+    per_ms = ds["setting_wall_per_ms"].values.astype(float)
+    bars = ax.bar(range(len(timed)), per_ms, color="tab:blue")
+    for bar, speedup in zip(bars, ds["setting_speedup"].values.astype(float), strict=True):
+        if np.isfinite(speedup):
+            ax.annotate(f"{speedup:.2f}x", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
+                        va="bottom", fontsize=9)  # fmt: skip
+    base = float(ds["baseline_wall_per_ms"])
+    if np.isfinite(base):
+        ax.axhline(base, color="k", ls="--", lw=1.0, label=f"today's solver, same session ({base:.1f} s)")
+    ax.axhline(5.0, color="tab:red", ls=":", lw=1.2, label="target: 5 s per simulated ms")
+    ax.set_xticks(range(len(timed)), timed, rotation=15, fontsize=8)
+    ax.set_ylabel("wall time per simulated ms [s] (one core, median)")
+    ax.set_title("cost of the default run", fontsize=10)
+    ax.legend(fontsize=8, loc="upper right")
+    settings = [str(s) for s in ds["setting"].values]
+    x = np.arange(len(settings))
+    for ax, (key, scale, label) in zip(axes[1:], stats, strict=True):
+        by_seed = ds[key + "_by_seed"].values.astype(float) * scale
+        ax.plot(x, by_seed, color="0.75", lw=0.6, marker=".", ms=4, zorder=1)
+        mean = ds[key + "_mean"].values.astype(float) * scale
+        ci = ds[key + "_ci"].values.astype(float) * scale
+        ax.errorbar(x, mean, yerr=ci, fmt="o", color="tab:orange", capsize=4, zorder=3, label="mean, 95 % CI")
+        ax.axhspan(mean[-1] - ci[-1], mean[-1] + ci[-1], color="tab:green", alpha=0.15, label="reference CI")
+        _zoom_past_outliers(ax, x, mean, ci)
+        ax.set_xticks(x, settings, rotation=15, fontsize=8)
+        ax.set_ylabel(label)
+        ax.set_title(f"{label.split(' [')[0]} over {ds.sizes['seed']} tracks", fontsize=10)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[1].legend(fontsize=8)
+    fig.suptitle(f"Scene 2 bench: {ds.attrs.get('baseline_solver', '')}; recommended "
+                 f"{ds.attrs.get('recommended_setting', '')}", fontsize=10)  # fmt: skip
+    return fig
+
+
+def _zoom_past_outliers(ax, x: np.ndarray, mean: np.ndarray, ci: np.ndarray) -> None:
+    """Limit the y axis to the settings whose CI is at most 5x the median CI; write the others' mean +- CI."""
+    finite = np.isfinite(mean) & np.isfinite(ci)
+    if not finite.any():
+        return
+    typical = ci[finite] <= 5.0 * np.median(ci[finite])
+    kept = np.flatnonzero(finite)[typical]
+    lo, hi = float(np.min(mean[kept] - ci[kept])), float(np.max(mean[kept] + ci[kept]))
+    pad = 0.25 * (hi - lo) if hi > lo else 0.05 * abs(hi) + 1e-30
+    ax.set_ylim(lo - pad, hi + pad)
+    for k in np.flatnonzero(finite)[~typical]:
+        ax.annotate(f"{mean[k]:.3g} +- {ci[k]:.2g}\n(off scale)", (x[k], hi + 0.6 * pad), ha="center", va="center",
+                    fontsize=8, color="tab:orange")  # fmt: skip

@@ -35,12 +35,13 @@ class SurfaceForces:
 
 @dataclass
 class Candidates:
-    """Cells near the disk for one time step: grid index, offset (surface - disk) [m], sigma [m], b (3, k)."""
+    """Cells near the disk for one step: grid index, offset (surface - disk) [m], sigma [m], b (3, k), area [m2]."""
 
     index: np.ndarray
     base: np.ndarray
     sigma: np.ndarray
     b: np.ndarray
+    area: np.ndarray
 
 
 class SurfaceModel:
@@ -63,8 +64,14 @@ class SurfaceModel:
         X, Y = grid.contact_x - s.pivot_x, grid.contact_y - s.pivot_y  # each control volume's contact patch
         self.b = np.stack([np.ones(X.size), -X.ravel(), -Y.ravel()])  # (3, n) d(spacing)/dq per patch
         self.area = grid.contact_area.ravel()
+        self.surface = grid.surface.ravel()  # the face's static surface at the patches [m]
+        self.b_max = np.abs(self.b).max(axis=1)  # largest |d spacing / dq| over the face
+        self.near = np.empty(self.area.size, dtype=np.int64)  # work array of :meth:`candidates`
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
+        #: The Greenwood-Williamson law's constants as the kernels take them
+        #: (:func:`solver.kernels.surface.generalized_forces`).
+        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.mu, self.friction_arm, self.reach, REACH_SIGMAS)
 
     def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
         """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
@@ -74,16 +81,22 @@ class SurfaceModel:
         near = np.flatnonzero(d_flat < self.reach + REACH_SIGMAS * s_flat)
         return self._on(near, d_flat[near], s_flat[near])
 
-    def candidates(self, offset: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
-        """The cells within reach (plus ``margin``) at attitude q; offset = static surface - disk height (nx, ny).
+    def candidates(self, disk: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
+        """The cells within reach (plus ``margin``) at attitude q over the disk heights ``disk`` (nx, ny) [m].
 
         A time step's Newton iterations then evaluate only these cells
         (:meth:`forces_on`), instead of the whole face.
         """
-        base, s_flat = offset.ravel(), sigma.ravel()
-        d = base + q @ self.b
-        near = np.flatnonzero(d < self.reach + REACH_SIGMAS * s_flat + margin)
-        return Candidates(near, base[near], np.ascontiguousarray(s_flat[near]), np.ascontiguousarray(self.b[:, near]))
+        disk, s_flat = disk.ravel(), sigma.ravel()
+        count = ksurf.near_cells(self.surface, disk, s_flat, self.b, q, self.reach, REACH_SIGMAS, margin, self.near)
+        near = self.near[:count].copy()
+        return Candidates(
+            near,
+            self.surface[near] - disk[near],
+            s_flat[near],
+            np.ascontiguousarray(self.b[:, near]),
+            self.area[near],
+        )
 
     def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:
         """Surface forces at attitude q from the candidate cells only."""

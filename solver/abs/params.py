@@ -302,6 +302,9 @@ class AbsModels(Section):
     )
 
 
+FILM_COUPLINGS = ("two_pass", "linearized")
+
+
 @dataclass(frozen=True)
 class AbsNumerics(Section):
     section = "numerics"
@@ -336,6 +339,24 @@ class AbsNumerics(Section):
     )
     newton_tol: float = quantity(
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
+    )
+    film_coupling: str = quantity(
+        "linearized",
+        "",
+        "film-structure coupling of a step: 'two_pass' advances the film along the predicted attitude path, then "
+        "again along the corrected one; 'linearized' advances it once and corrects it to the corrected path with "
+        "its derivatives (forward differences, refreshed every film_jacobian_every steps)",
+        choices=FILM_COUPLINGS,
+    )
+    film_jacobian_every: int = quantity(
+        100, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
+    )
+    film_repass: float = quantity(
+        1.0e-10,
+        "m",
+        "film_coupling 'linearized': the film is advanced again along the corrected path when it moves some corner "
+        "of the face farther than this from the predicted one (a hard contact)",
+        lo=0.0,
     )
     newton_max_iter: int = quantity(30, "1", "Newton iterations of the implicit contact solve", lo=1)
     film_floor: float = quantity(

@@ -9,6 +9,7 @@ import numpy as np
 
 from solver.abs.face import AbsGrid
 from solver.abs.params import AbsScene
+from solver.kernels.disk import fill_disk_heights
 
 log = logging.getLogger(__name__)
 
@@ -45,14 +46,20 @@ class Track:
         wx, wy = control_volume_widths(grid.x), control_volume_widths(grid.y)
         width = wx[:, None] * abs(math.cos(psi)) + wy[None, :] * abs(math.sin(psi))  # each cell along the track
         self.tables = disk_tables(profile, width)
+        self.table_of_node = np.ascontiguousarray(self.tables.table_of_column)  # per node: width is (nx, ny)
         self.zd = np.zeros((nx, ny))
         self.sd = np.zeros((nx, ny))
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(z_d, sigma) at the nodes at time t: (nx, ny) each [m]; a smooth disk gives zeros."""
+        """(z_d, sigma) at the nodes at time t: (nx, ny) each [m]; a smooth disk gives zeros.
+
+        The tables are sampled as :func:`solver.disk.disk_surface` does, without its per-call checks.
+        """
         if self.smooth:
             return self.zero, self.zero
-        from solver.disk import disk_surface
-
-        disk_surface(self.tables, self.s_nodes, self.speed * t, self.zd, self.sd)
+        tables = self.tables
+        fill_disk_heights(
+            tables.mean, tables.residual_rms, self.table_of_node, tables.spacing, self.s_nodes, self.speed * t,
+            self.zd, self.sd,
+        )  # fmt: skip
         return self.zd.copy(), self.sd.copy()

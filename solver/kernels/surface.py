@@ -190,10 +190,11 @@ def gw_integrals(t: float) -> tuple[float, float]:
 @njit
 def lj_pressure(h: float, eps: float, adh_coef: float) -> tuple[float, float]:
     """Flat-flat Lennard-Jones pressure adh_coef [(eps/h)^9 - (eps/h)^3] [Pa] and its slope d/dh [Pa/m]."""
-    u = eps / h
+    inv_h = 1.0 / h  # one division for both (they dominate the cost of the adhesion quadratures)
+    u = eps * inv_h
     u3 = u * u * u
     u9 = u3 * u3 * u3
-    return adh_coef * (u9 - u3), adh_coef * (3.0 * u3 - 9.0 * u9) / h
+    return adh_coef * (u9 - u3), adh_coef * (3.0 * u3 - 9.0 * u9) * inv_h
 
 
 @njit
@@ -257,3 +258,104 @@ def surface_pressures(
     for i in range(d.size):
         out[0, i], out[1, i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
         out[2, i], out[3, i] = adhesion_pressure(d[i], sigma[i], eps, adh_coef)
+
+
+@njit
+def generalized_forces(
+    offset: np.ndarray,
+    sigma: np.ndarray,
+    b: np.ndarray,
+    area: np.ndarray,
+    q: np.ndarray,
+    eps: float,
+    gw_coef: float,
+    adh_coef: float,
+    mu: float,
+    arm: np.ndarray,
+    reach: float,
+    reach_sigmas: float,
+    f: np.ndarray,
+    dfdq: np.ndarray,
+) -> tuple[float, float, int]:
+    """Generalized surface force f (3,) and its Jacobian dfdq (3, 3) at attitude q over k cells, in place.
+
+    Cell i has the separation d_i = offset_i + b_i . q [m] (b_i (3,) = d d_i / dq), roughness sigma_i [m]
+    and area A_i [m2]; with the Greenwood-Williamson contact p_c and adhesion p_a (:func:`contact_pressure`,
+    :func:`adhesion_pressure`) and Coulomb friction mu p_c acting through the lever ``arm`` (3,),
+
+        f = sum_i A_i (p_c + p_a) b_i + mu (sum_i A_i p_c) arm,
+        dfdq = sum_i A_i (p_c' + p_a') b_i b_i^T + mu arm (sum_i A_i p_c' b_i)^T.
+
+    Returns the contact and adhesion forces [N] and the number of cells within reach
+    (d_i < reach + reach_sigmas sigma_i).
+    """
+    f0 = f1 = f2 = 0.0  # scalar accumulators: f, the upper triangle of the symmetric part, the friction row
+    j00 = j01 = j02 = j11 = j12 = j22 = 0.0
+    w0 = w1 = w2 = 0.0
+    contact = 0.0
+    adhesion = 0.0
+    in_reach = 0
+    q0, q1, q2 = q[0], q[1], q[2]
+    for i in range(offset.size):
+        b0, b1, b2 = b[0, i], b[1, i], b[2, i]
+        d = offset[i] + b0 * q0 + b1 * q1 + b2 * q2
+        s = sigma[i]
+        pc, dpc = contact_pressure(d, s, eps, gw_coef)
+        pa, dpa = adhesion_pressure(d, s, eps, adh_coef)
+        fc = pc * area[i]
+        fa = pa * area[i]
+        w = dpc * area[i]
+        wn = w + dpa * area[i]
+        contact += fc
+        adhesion += fa
+        if d < reach + reach_sigmas * s:
+            in_reach += 1
+        fn = fc + fa
+        f0 += fn * b0
+        f1 += fn * b1
+        f2 += fn * b2
+        w0 += w * b0
+        w1 += w * b1
+        w2 += w * b2
+        j00 += wn * b0 * b0
+        j01 += wn * b0 * b1
+        j02 += wn * b0 * b2
+        j11 += wn * b1 * b1
+        j12 += wn * b1 * b2
+        j22 += wn * b2 * b2
+    f[0], f[1], f[2] = f0, f1, f2
+    dfdq[0, 0], dfdq[0, 1], dfdq[0, 2] = j00, j01, j02
+    dfdq[1, 0], dfdq[1, 1], dfdq[1, 2] = j01, j11, j12
+    dfdq[2, 0], dfdq[2, 1], dfdq[2, 2] = j02, j12, j22
+    friction = (w0, w1, w2)
+    for r in range(3):
+        f[r] += mu * contact * arm[r]
+        for c in range(3):
+            dfdq[r, c] += mu * arm[r] * friction[c]
+    return contact, adhesion, in_reach
+
+
+@njit
+def near_cells(
+    surface: np.ndarray,
+    disk: np.ndarray,
+    sigma: np.ndarray,
+    b: np.ndarray,
+    q: np.ndarray,
+    reach: float,
+    reach_sigmas: float,
+    margin: float,
+    index: np.ndarray,
+) -> int:
+    """The cells i with surface_i - disk_i + b_i . q < reach + reach_sigmas sigma_i + margin, in order, into ``index``.
+
+    surface, disk, sigma : (n,) [m]; b : (3, n); q : (3,); index : (n,) int, filled from the start.
+    Returns their number.
+    """
+    count = 0
+    for i in range(surface.size):
+        d = surface[i] - disk[i] + b[0, i] * q[0] + b[1, i] * q[1] + b[2, i] * q[2]
+        if d < reach + reach_sigmas * sigma[i] + margin:
+            index[count] = i
+            count += 1
+    return count

@@ -1,0 +1,171 @@
+"""The implicit generalized-alpha step of an "abs" slider on its surface forces, as one kernel.
+
+Unknown: the acceleration a = a_n+1 (3,).  The Newmark relations
+
+    q(a) = q_n + h v_n + h^2 ((1/2 - beta) a_n + beta a),   v(a) = v_n + h ((1 - gamma) a_n + gamma a),
+
+and the balance of the generalized-alpha method (:mod:`solver.abs.integrate`)
+
+    G(a) = M [(1 - am) a + am a_n] + C [(1 - af) v + af v_n] + K [(1 - af) q + af q_n - q_ref] - f_static
+           - (1 - af) (f_air(q) + f_s(q)) - af f_old = 0,
+
+with the film force linear in q about the path the film was advanced along,
+f_air(q) = f_path + K_f (q - q_path), and the Greenwood-Williamson surface
+forces f_s (:func:`solver.kernels.surface.generalized_forces`).  Newton's
+method with the exact Jacobian
+
+    dG/da = (1 - am) M + (1 - af) (gamma h C + beta h^2 (K - df_s/dq - K_f)),
+
+each step halved (at most ``max_backtracks`` times, down to ``min_damping``)
+until the weighted residual max |W G| decreases.  Converged when max |W G|
+< tol, or at the round-off of the forces: max |W G| <= round_off (max |W f_s|
++ max |W f_path|).  The same iteration as the Python loop of
+:meth:`solver.abs.integrate.AbsStepper._newton`, which the elastic law uses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..jit import njit
+from .surface import generalized_forces
+
+
+@njit
+def solve3(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """x with A x = rhs for a 3 x 3 A: Gaussian elimination with partial pivoting (A and rhs are not changed)."""
+    m = A.copy()
+    x = rhs.copy()
+    for k in range(3):
+        p = k
+        for r in range(k + 1, 3):
+            if abs(m[r, k]) > abs(m[p, k]):
+                p = r
+        if p != k:
+            for c in range(3):
+                m[k, c], m[p, c] = m[p, c], m[k, c]
+            x[k], x[p] = x[p], x[k]
+        for r in range(k + 1, 3):
+            factor = m[r, k] / m[k, k]
+            for c in range(k, 3):
+                m[r, c] -= factor * m[k, c]
+            x[r] -= factor * x[k]
+    for k in range(2, -1, -1):
+        s = x[k]
+        for c in range(k + 1, 3):
+            s -= m[k, c] * x[c]
+        x[k] = s / m[k, k]
+    return x
+
+
+@njit
+def _balance(
+    a_trial: np.ndarray,
+    h: float,
+    state: tuple,
+    scheme: tuple,
+    film: tuple,
+    cells: tuple,
+    law: tuple,
+    q1: np.ndarray,
+    v1: np.ndarray,
+    f_s: np.ndarray,
+    dfdq: np.ndarray,
+    G: np.ndarray,
+) -> tuple[float, float, int]:
+    """q(a), v(a), the surface forces and G(a) into the output arrays; returns contact, adhesion, cells in reach."""
+    q, v, a = state
+    M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
+    f_path, q_path, film_K, f_old = film
+    offset, sigma, b, area = cells
+    eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas = law
+    for k in range(3):
+        q1[k] = q[k] + h * v[k] + h * h * ((0.5 - beta) * a[k] + beta * a_trial[k])
+        v1[k] = v[k] + h * ((1.0 - gamma) * a[k] + gamma * a_trial[k])
+    contact, adhesion, in_reach = generalized_forces(
+        offset, sigma, b, area, q1, eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas, f_s, dfdq
+    )
+    for r in range(3):
+        g = -f_static[r] - alpha_f * f_old[r]
+        f_air = f_path[r]
+        for c in range(3):
+            g += M[r, c] * ((1.0 - alpha_m) * a_trial[c] + alpha_m * a[c])
+            g += C[r, c] * ((1.0 - alpha_f) * v1[c] + alpha_f * v[c])
+            g += K[r, c] * ((1.0 - alpha_f) * q1[c] + alpha_f * q[c] - q_ref[c])
+            f_air += film_K[r, c] * (q1[c] - q_path[c])
+        G[r] = g - (1.0 - alpha_f) * (f_air + f_s[r])
+    return contact, adhesion, in_reach
+
+
+@njit
+def _weighted_max(x: np.ndarray, weights: np.ndarray) -> float:
+    return max(abs(x[0] * weights[0]), abs(x[1] * weights[1]), abs(x[2] * weights[2]))
+
+
+@njit
+def newton_step(
+    a_new: np.ndarray,
+    h: float,
+    state: tuple,
+    scheme: tuple,
+    film: tuple,
+    cells: tuple,
+    law: tuple,
+    controls: tuple,
+    q1: np.ndarray,
+    v1: np.ndarray,
+    f_s: np.ndarray,
+    dfdq: np.ndarray,
+) -> tuple[int, float, bool, float, float, int]:
+    """Newton's method on a_n+1 (the module docstring), in place on a_new (the initial guess on entry).
+
+    state : (q_n, v_n, a_n); scheme : (M, C, K, q_ref, f_static, weights, am, af, gamma, beta);
+    film : (f_path, q_path, K_f, f_old); cells : (offset, sigma, b, area) of the candidate cells;
+    law : (eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas); controls : (tol, round_off, max_iter,
+    max_backtracks, min_damping).  On return q1, v1, f_s, dfdq hold the last iterate's attitude,
+    velocities, surface force and its Jacobian.  Returns (iterations, weighted residual, converged,
+    contact force, adhesion force, cells in reach).
+    """
+    M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
+    f_path, q_path, film_K, f_old = film
+    tol, round_off, max_iter, max_backtracks, min_damping = controls
+    G = np.empty(3)
+    trial = np.empty(3)
+    tq, tv, tf, tG = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    tJ = np.empty((3, 3))
+    Jn = np.empty((3, 3))
+    contact, adhesion, in_reach = _balance(a_new, h, state, scheme, film, cells, law, q1, v1, f_s, dfdq, G)
+    norm = _weighted_max(G, weights)
+    scale = _weighted_max(f_path, weights)
+    iterations = 0
+    for _ in range(max_iter):
+        iterations += 1
+        if norm < tol or norm <= round_off * (_weighted_max(f_s, weights) + scale):
+            break
+        for r in range(3):
+            for c in range(3):
+                Jn[r, c] = (1.0 - alpha_m) * M[r, c] + (1.0 - alpha_f) * (
+                    gamma * h * C[r, c] + beta * h * h * (K[r, c] - dfdq[r, c] - film_K[r, c])
+                )
+        step = solve3(Jn, G)
+        lam = 1.0
+        trial_norm = norm
+        totals = (contact, adhesion, in_reach)
+        for _ in range(max_backtracks):
+            for k in range(3):
+                trial[k] = a_new[k] - lam * step[k]
+            totals = _balance(trial, h, state, scheme, film, cells, law, tq, tv, tf, tJ, tG)
+            trial_norm = _weighted_max(tG, weights)
+            if trial_norm < norm or lam < min_damping:
+                break
+            lam *= 0.5
+        a_new[:] = trial
+        q1[:] = tq
+        v1[:] = tv
+        f_s[:] = tf
+        dfdq[:, :] = tJ
+        G[:] = tG
+        norm = trial_norm
+        contact, adhesion, in_reach = totals
+    converged = norm < tol or norm <= round_off * (_weighted_max(f_s, weights) + scale)
+    return iterations, norm, converged, contact, adhesion, in_reach
