@@ -110,7 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="leave out scene 2 (flight, one run, four Table-I studies, regime map, statistics)",
     )
     p.add_argument("--quick", action="store_true",
-                   help="scene 2 without the statistics study (3 time steps x 16 realisations; the dt = 0.1 and "
+                   help="scene 2 without the statistics study (3 time steps x 12 realisations; the dt = 0.1 and "
                         "0.05 us runs cost 2 and 4 times the default)")  # fmt: skip
     p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)

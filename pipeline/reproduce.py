@@ -82,7 +82,7 @@ SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
 
 #: Scene 2's studies in reproduce: the four Table-I sweeps and the regime map, 8 track realisations per cell
 #: (200 + 130 runs: the smooth-disk cells of roughness_adhesion run once); then, unless --quick, the statistics
-#: study (3 time steps x 16 realisations; its dt = 0.1 and 0.05 us runs cost 2 and 4 times the default).
+#: study (3 time steps x 12 realisations; its dt = 0.1 and 0.05 us runs cost 2 and 4 times the default).
 SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction", "pad_preload_map")
 SCENE2_STATISTICS = "statistics"
 

@@ -106,8 +106,9 @@ def test_a_seeded_kind_gets_the_default_realizations_and_one_must_be_explicit(tm
         load_study(write(tmp_path, "realizations = 0", pad))
     rails = write(tmp_path, "", axis("contact.mu", [0.0]), scene=ROOT / "studies" / "scenes" / "benson1989.toml")
     assert load_study(rails).dims == ("mu",), "a deterministic kind has no realisations by default"
-    for name in ("pad_width", "preload", "friction", "roughness_adhesion", "pad_preload_map"):
+    for name in ("pad_width", "preload", "friction", "roughness_adhesion"):  # the Table-I sweeps: the default
         assert len(load_study(ROOT / "studies" / f"{name}.toml").axis("realization").values) == 8
+    assert len(load_study(ROOT / "studies" / "pad_preload_map.toml").axis("realization").values) == 4  # its cost
 
 
 def test_smooth_disk_cells_run_once_and_their_interval_is_zero(tmp_path):
