@@ -145,19 +145,20 @@ class AbsFilm:
         """
         g, c, xp, yp = self.grid, self.cuts, *self.pivot
         f, mp, mr = kf.film_forces(self.P, g.area, g.x, g.y, xp, yp)
-        args = (self.kn, self.h_ref, self.h_switch, self.code)
-        if g.cuts_x.count:
-            load, along, across = kf.cut_corrections(
-                self.P, c.xface, c.xpiece_ptr, c.xweight, c.xseg_ptr, c.xtheta, c.xH, g.cuts_x.seg_x[0], g.x, g.y,
-                self._width_y, self.dx, 0, self.lamx, *args, xp, yp,
-            )  # fmt: skip
-            f, mp, mr = f + load, mp - along, mr - across
-        if g.cuts_y.count:
-            load, along, across = kf.cut_corrections(
-                self.P, c.yface, c.ypiece_ptr, c.yweight, c.yseg_ptr, c.ytheta, c.yH, g.cuts_y.seg_y[0], g.y, g.x,
-                self._width_x, self.dy, 1, self.lamy, *args, yp, xp,
-            )  # fmt: skip
-            f, mp, mr = f + load, mp - across, mr - along
+        law = (self.kn, self.h_ref, self.h_switch, self.code)
+        per_axis = (  # the cut links, along-coordinate, nodes along and across, strip widths, spacings, arms
+            (g.cuts_x, c[0:6], g.cuts_x.seg_x[0], g.x, g.y, self._width_y, self.dx, self.lamx, xp, yp),
+            (g.cuts_y, c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, yp, xp),
+        )
+        for axis, (cuts, links, pos, along, across, width, spacing, lam, arm0, cross0) in enumerate(per_axis):
+            if cuts.count:
+                face, ptr, weight, seg_ptr, theta, H = links
+                load, m_along, m_across = kf.cut_corrections(
+                    self.P, face, ptr, weight, seg_ptr, theta, H, pos, along, across, width, spacing, axis, lam,
+                    *law, arm0, cross0,
+                )  # fmt: skip
+                m_pitch, m_roll = (m_along, m_across) if axis == 0 else (m_across, m_along)
+                f, mp, mr = f + load, mp - m_pitch, mr - m_roll
         return self.p0 * np.array([f, mp, mr])
 
     # steady -------------------------------------------------------------------------------------------
