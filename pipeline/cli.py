@@ -43,6 +43,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_args(p)
     p.add_argument("-o", "--output", type=Path, help="netCDF file for the steady state")
     p.add_argument("--plot", type=Path, help="PNG of the steady pressure")
+    p.add_argument(
+        "--modes",
+        action="store_true",
+        help="also the slider's modes on its air bearing: frequencies, damping ratios, shapes, and the damping "
+        "the scene's time step adds to each (kind abs)",
+    )
     p.set_defaults(func=cmd_fly)
 
     p = sub.add_parser("simulate", help="one run: steady flight + disturbance, contacts, classification")

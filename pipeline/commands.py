@@ -9,19 +9,29 @@ from pathlib import Path
 import numpy as np
 
 
-def fly_scene(scene, output: Path | None = None, plot: Path | None = None, quiet: bool = False):
-    """Steady flight of a scene of any kind: print it, write its dataset and figure; returns the dataset."""
+def fly_scene(scene, output: Path | None = None, plot: Path | None = None, quiet: bool = False, modes: bool = False):
+    """Steady flight of a scene of any kind: print it, write its dataset and figure; returns the dataset.
+
+    ``modes``: also the modes of the slider on its air bearing (kinds that have a modal analysis).
+    """
     from .data.netcdf import write_netcdf
     from .figures.common import save_figure
     from .kinds import adapter_of, plot_dataset
 
     adapter = adapter_of(scene)
+    if modes and adapter.modes is None:
+        raise ValueError(f"--modes: scenes of kind {adapter.name!r} have no modal analysis (kind 'abs' has)")
     t0 = time.perf_counter()
     steady = adapter.solver.fly(scene)
     wall = time.perf_counter() - t0
     if not quiet:
         print("\n".join(adapter.fly_report(steady, scene, wall)))
     ds = adapter.fly_dataset(steady, scene, wall)
+    if modes:
+        lines, variables = adapter.modes(scene, steady)
+        if not quiet:
+            print("\n".join(lines))
+        ds = ds.assign(variables)
     if output:
         print(f"wrote {write_netcdf(ds, output)}")
     if plot:
@@ -50,7 +60,7 @@ def simulate_scene(scene, output: Path | None = None, plot: Path | None = None, 
 def cmd_fly(args: argparse.Namespace) -> int:
     from .config import load_scene
 
-    fly_scene(load_scene(args.scene, args.overrides), args.output, args.plot)
+    fly_scene(load_scene(args.scene, args.overrides), args.output, args.plot, modes=args.modes)
     return 0
 
 

@@ -34,6 +34,8 @@ class Adapter:
     ``stochastic(scene)`` is False where the kind's seed has no effect on the scene (a smooth disk): a study runs
     such a cell once and gives that record to every realisation (the interval of its mean is then 0).
     ``figures`` maps a product ("fly", "run", "study") or a study's ``figure`` name to its figure.
+    ``modes(scene, steady)`` gives the modes of the slider on its air bearing about steady flight as report
+    lines and dataset variables (None: the kind has no modal analysis; ``hdi fly --modes`` refuses it).
     """
 
     name: str
@@ -55,6 +57,7 @@ class Adapter:
     figures: Mapping[str, Callable[..., Any]]
     bench: Callable[[Any], int] | None
     series_kept: Mapping[str, tuple[str, str]]
+    modes: Callable[[Any, Any], tuple[list[str], dict[str, xr.Variable]]] | None = None
 
     @property
     def solver(self):
@@ -165,6 +168,7 @@ def _adapters() -> dict[str, Adapter]:
         },  # fmt: skip
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
+        modes=data_abs.modes,
     )
     return {a.name: a for a in (rails, abs_)}
 
