@@ -409,15 +409,15 @@ def _realization_axis(path: Path, n: Any, base: dict[str, Any], axes: tuple[Axis
 
 
 def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], int]:
-    """[outputs]: the kind's outputs a study keeps (its required ones always) and the first impacts kept."""
+    """[outputs]: the kind's outputs a study keeps (by default its ``study_outputs``; its required ones always)
+    and the first impacts kept."""
     _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
-    known = adapter.study_outputs
-    variables = outputs.get("variables", list(known))
+    variables = outputs.get("variables", list(adapter.study_outputs))
     if not isinstance(variables, list):
         raise _study_error(path, "[outputs] variables", "must be a list")
     for v in variables:
-        if v not in known:
-            allowed = ", ".join(known)
+        if v not in adapter.outputs:
+            allowed = ", ".join(adapter.outputs)
             raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
     for needed in reversed(adapter.required_outputs):
         if needed not in variables:
