@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import EPS, SCENE1_ATTITUDE, small_scene
+from conftest import EPS, SCENE1_ATTITUDE, small_scene, thornton_e
 
 from solver.jit import JIT_DISABLED
 from solver.rails import contact as contact_module
@@ -325,10 +325,7 @@ def test_lone_corner_impact_applies_and_records_its_law_s_coefficient(law, corne
             assert imp.alpha == c.alpha and math.isnan(imp.yield_velocity)
         else:
             assert imp.yield_velocity == pytest.approx(v_y, rel=1e-12, abs=0)
-            r = min(v_y / speed, 1.0)
-            e_t = math.sqrt(6 * math.sqrt(3) / 5 * (1 - r * r / 6))
-            e_t *= (r / (r + 2 * math.sqrt(6 / 5 - r * r / 5))) ** 0.25
-            assert imp.alpha == pytest.approx(c.alpha * e_t, rel=1e-14, abs=0)
+            assert imp.alpha == pytest.approx(c.alpha * thornton_e(speed, v_y), rel=1e-14, abs=0)
         assert not imp.held
         assert imp.approach_after == pytest.approx(-imp.alpha * speed, rel=1e-10, abs=0)
         scale = np.abs(M) @ (np.abs(v_after) + np.abs(v))

@@ -8,7 +8,7 @@ import tomllib
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import cf_errors
+from conftest import cf_errors, thornton_e
 
 from pipeline.classify import classify_impulses
 from pipeline.cli import main
@@ -168,12 +168,6 @@ def test_cli_fly_simulate_plot(tmp_path, capsys):
     assert cf_errors(run_nc) == []
     assert main(["plot", str(run_nc), "-o", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
-
-
-def thornton_e(speed: np.ndarray, v_yield: np.ndarray) -> np.ndarray:
-    """Thornton's e_T (J. Appl. Mech. 64:383, 1997) as written in ../shared/SCENE2-NOTES.md section 6."""
-    r = np.minimum(v_yield / speed, 1.0)
-    return (6 * np.sqrt(3) / 5) ** 0.5 * (1 - r**2 / 6) ** 0.5 * (r / (r + 2 * (6 / 5 - r**2 / 5) ** 0.5)) ** 0.25
 
 
 @pytest.mark.parametrize("law", ["constant", "thornton"])

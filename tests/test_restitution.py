@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SCENE1_ATTITUDE
+from conftest import SCENE1_ATTITUDE, thornton_e
 from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
@@ -74,11 +74,6 @@ class HertzPlastic:
         return math.sqrt(returned / energy)
 
 
-def closed_form(r: float) -> float:
-    """Thornton's e_T at r = V_y / V <= 1 as written in ../shared/SCENE2-NOTES.md section 6."""
-    return (6 * math.sqrt(3) / 5) ** 0.5 * (1 - r**2 / 6) ** 0.5 * (r / (r + 2 * (6 / 5 - r**2 / 5) ** 0.5)) ** 0.25
-
-
 @pytest.mark.parametrize(("radius", "modulus", "yield_pressure", "mass"), MATERIALS)
 def test_yield_velocity_stores_the_elastic_energy_at_first_yield(radius, modulus, yield_pressure, mass):
     contact = HertzPlastic(radius, modulus, yield_pressure)
@@ -105,7 +100,7 @@ def test_published_values(ratio, published):
 
 @pytest.mark.parametrize("ratio", [1.2, 3.0, 30.0, 3000.0])
 def test_the_notes_closed_form(ratio):
-    assert thornton_coefficient(ratio, 1.0) == pytest.approx(closed_form(1.0 / ratio), rel=1e-14, abs=0)
+    assert thornton_coefficient(ratio, 1.0) == pytest.approx(float(thornton_e(ratio, 1.0)), rel=1e-14, abs=0)
 
 
 def thornton_contact(alpha: float = 0.9, **keys) -> Contact:
