@@ -145,7 +145,16 @@ RAILS_OUTPUTS: dict[str, Output] = {
     "steps": COMMON_OUTPUTS["steps"],
     "newton_iterations": COMMON_OUTPUTS["newton_iterations"],
     "wall_time": COMMON_OUTPUTS["wall_time"],
+    "first_impact_velocity": Output(np.float64, np.nan, "m s-1",
+                                    "normal approach speed U + eps V of the first impact (wedging included)"),
+    "first_impact_alpha": Output(np.float64, np.nan, "1", "coefficient of restitution applied at the first impact"),
+    "first_yield_velocity": Output(np.float64, np.nan, "m s-1",
+                                   "Thornton's yield velocity at the first impact (NaN under the constant law)"),
 }  # fmt: skip
+
+#: Outputs of a "rails" run about its restitution law: kept by a study that lists them in [outputs] variables
+#: (the other studies' datasets stay as they were before the law could be chosen).
+RAILS_RESTITUTION_OUTPUTS = ("first_impact_velocity", "first_impact_alpha", "first_yield_velocity")
 
 #: Outputs of an "abs" run (bouncing and contact measures), in the order a study keeps them by default.
 ABS_OUTPUTS: dict[str, Output] = {
@@ -196,6 +205,9 @@ def rails_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
         "status": int(result.status),
         "message": result.message,
         "first_impact_time": impacts[0].time if impacts else float("nan"),
+        "first_impact_velocity": impacts[0].approach_before if impacts else float("nan"),
+        "first_impact_alpha": impacts[0].alpha if impacts else float("nan"),
+        "first_yield_velocity": impacts[0].yield_velocity if impacts else float("nan"),
         "steps": int(result.work["steps"]),
         "newton_iterations": int(result.work["newton_iterations"]),
         "impacts": {

@@ -24,7 +24,8 @@ class Adapter:
 
     ``record(scene, result, impacts_kept)`` is the run classifier: the JSON-ready fields a run returns to a
     study.  ``outputs`` declares every scalar of such a record once (units, long name, dtype and fill in a study
-    dataset); ``study_outputs`` are kept by default, ``required_outputs`` always.  ``class_flag`` names the
+    dataset); ``study_outputs`` are kept by default, the others when a study lists them, ``required_outputs``
+    always.  ``class_flag`` names the
     two-valued class a boundary or multi-fidelity study traces (None: those modes are refused).
     ``category`` names the flag output whose share over a cell's realisations a study reports
     (``<category>_fraction``, e.g. ``regime_fraction``; None: no such output).
@@ -108,7 +109,14 @@ def _adapters() -> dict[str, Adapter]:
     from . import reports
     from .bench import abs as bench_abs
     from .bench import rails as bench_rails
-    from .classify import ABS_OUTPUTS, ABS_SERIES_KEPT, RAILS_OUTPUTS, abs_record, rails_record
+    from .classify import (
+        ABS_OUTPUTS,
+        ABS_SERIES_KEPT,
+        RAILS_OUTPUTS,
+        RAILS_RESTITUTION_OUTPUTS,
+        abs_record,
+        rails_record,
+    )
     from .data import abs as data_abs
     from .data import rails as data_rails
     from .figures import abs as figures_abs
@@ -119,7 +127,7 @@ def _adapters() -> dict[str, Adapter]:
         name="rails",
         record=rails_record,
         outputs=RAILS_OUTPUTS,
-        study_outputs=tuple(RAILS_OUTPUTS),
+        study_outputs=tuple(name for name in RAILS_OUTPUTS if name not in RAILS_RESTITUTION_OUTPUTS),
         required_outputs=("stable", "status"),
         impacts_kept=20,
         class_flag="stable",

@@ -41,9 +41,17 @@ def rails_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
         f"t_end = {scene.numerics.t_end * 1e6:.0f} us",
         f"  status {result.status}: {result.message}",
     ]
+    thornton = c.restitution == "thornton"
+    if thornton:
+        lines.append(f"  restitution: alpha x Thornton's e_T, corner radius {c.corner_radius * 1e6:g} um, "
+                     f"E* {c.contact_modulus / 1e9:g} GPa, p_y {c.yield_pressure / 1e9:g} GPa")  # fmt: skip
     for k, imp in enumerate(result.impacts):
-        lines.append(f"  impact {k + 1:3d}  t = {imp.time * 1e6:8.3f} us  corner {imp.corner_letter}  "
-                     f"q = {imp.impulse * 1e6:.4f} uN s")  # fmt: skip
+        line = (f"  impact {k + 1:3d}  t = {imp.time * 1e6:8.3f} us  corner {imp.corner_letter}  "
+                f"q = {imp.impulse * 1e6:.4f} uN s")  # fmt: skip
+        if thornton:
+            line += (f"  V = {imp.approach_before * 1e3:7.3f} mm/s  V_y = {imp.yield_velocity * 1e3:7.3f} mm/s  "
+                     f"alpha = {imp.alpha:.4f}")  # fmt: skip
+        lines.append(line)
     verdict = "STABLE" if int(ds["stable"]) else "UNSTABLE"
     w = result.work
     lines += [

@@ -13,15 +13,43 @@ FIG17_STUDY = Path(__file__).resolve().parent.parent / "studies" / "fig17.toml"
 
 
 CONVERGENCE_STUDY = FIG17_STUDY.with_name("convergence.toml")
+#: Figure 17 over friction and corner radius with Thornton's restitution (README, "Restitution that depends on
+#: impact velocity"): 462 runs and their bisection, about a minute on 2 workers.
+FIG17_THORNTON_STUDY = FIG17_STUDY.with_name("fig17_thornton.toml")
+
+
+def _grid_and_boundary(args: argparse.Namespace, out: Path, path: Path) -> None:
+    """A map as the full grid (``<name>.nc``) and as a traced boundary (``<name>_boundary.nc``), each with its own
+    ledger so that both report their real cost; the figure ``<name>.png`` overlays the bisection on the grid."""
+    from pipeline.figures.common import save_figure
+    from pipeline.kinds import plot_dataset
+    from pipeline.run.fanout import run_study
+    from pipeline.study.spec import load_study
+
+    outcomes = {}
+    for mode in ("grid", "boundary"):
+        study = load_study(path, mode=mode)
+        name = study.name if mode == "grid" else f"{study.name}_boundary"
+        print(f"\nstudy {name}: {study.size if mode == 'grid' else 'bisection of'} runs on {args.workers or 'all'} "
+              "local workers", flush=True)  # fmt: skip
+        outcomes[mode] = run_study(
+            study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers, quiet=args.quiet
+        )
+        o = outcomes[mode]
+        print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
+              f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
+        print_boundary(o.dataset)
+    fig = plot_dataset(outcomes["grid"].dataset, outcomes["boundary"].dataset)
+    print(f"wrote {save_figure(fig, out / f'{study.name}.png')}")
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    """The main job, into results/: scene-1 flight, the source's two contact runs, Figure 17, convergence, bench;
-    scene 2 (flight, one run, Table-I sweeps, regime map and, unless --quick, the statistics study).
+    """The main job, into results/: scene-1 flight, the source's two contact runs, Figure 17, convergence, Figure 17
+    with Thornton's restitution, bench; scene 2 (flight, one run, Table-I sweeps, regime map and, unless --quick,
+    the statistics study).
 
-    Figure 17 runs as the full grid and as a traced boundary, each with its own
-    ledger so that both report their real cost; running reproduce again resumes
-    (or reuses) both from their ledgers.
+    Figure 17 (and its Thornton map) runs as the full grid and as a traced boundary, each with its own ledger so
+    that both report their real cost; running reproduce again resumes (or reuses) both from their ledgers.
     """
     from pipeline.figures.common import save_figure
     from pipeline.kinds import plot_dataset
@@ -37,21 +65,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         print()
         simulate_scene(scene, out / f"benson1989_mu05_alpha{tag}.nc", out / f"benson1989_mu05_alpha{tag}.png")
     if not args.skip_studies:
-        outcomes = {}
-        for mode in ("grid", "boundary"):
-            study = load_study(FIG17_STUDY, mode=mode)
-            name = "fig17" if mode == "grid" else "fig17_boundary"
-            print(f"\nstudy {name}: {study.size if mode == 'grid' else 'bisection of'} runs on {args.workers or 'all'} "
-                  "local workers", flush=True)  # fmt: skip
-            outcomes[mode] = run_study(
-                study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers, quiet=args.quiet
-            )
-            o = outcomes[mode]
-            print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
-                  f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
-            print_boundary(o.dataset)
-        fig = plot_dataset(outcomes["grid"].dataset, outcomes["boundary"].dataset)
-        print(f"wrote {save_figure(fig, out / 'fig17.png')}")
+        _grid_and_boundary(args, out, FIG17_STUDY)
         for path, mode, name in ((FIG17_STUDY, "multifidelity", "fig17_multifidelity"),
                                  (CONVERGENCE_STUDY, "grid", "convergence")):  # fmt: skip
             study = load_study(path, mode=mode)
@@ -65,6 +79,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
                 print(f"multi-fidelity: {ds.attrs['cells_refined']} of {int(ds['refined'].size)} cells re-run with "
                       f"the full scene; {ds.attrs['cells_changed']} changed class")  # fmt: skip
             print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
+        _grid_and_boundary(args, out, FIG17_THORNTON_STUDY)
     if not args.skip_scene2:
         _reproduce_scene2(args, out)
     if not args.skip_bench:

@@ -28,6 +28,13 @@ TAPER_LENGTH = 0.4e-3
 SMALL_GRID = {"nx": 61, "nx_taper": 11, "ny": 9}
 
 
+def thornton_e(speed, yield_velocity):
+    """Thornton's e_T (J. Appl. Mech. 64:383, 1997) as written in ../shared/SCENE2-NOTES.md section 6, with
+    r = V_y / V capped at 1 (elastic below V_y): the tests' own copy of the closed form."""
+    r = np.minimum(np.asarray(yield_velocity, dtype=float) / np.asarray(speed, dtype=float), 1.0)
+    return (6 * np.sqrt(3) / 5) ** 0.5 * (1 - r**2 / 6) ** 0.5 * (r / (r + 2 * (6 / 5 - r**2 / 5) ** 0.5)) ** 0.25
+
+
 def small_scene(**sections) -> Scene:
     """Scene 1 with the documented taper length on the small grid; ``sections`` replace whole sections."""
     numerics = sections.pop("numerics", Numerics(**SMALL_GRID))

@@ -8,10 +8,11 @@ the quantities compared.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
-from conftest import EPS, SCENE1_ATTITUDE, small_scene
+from conftest import EPS, SCENE1_ATTITUDE, small_scene, thornton_e
 
 from solver.jit import JIT_DISABLED
 from solver.rails import contact as contact_module
@@ -29,7 +30,8 @@ from solver.rails.contact import (
 )
 from solver.rails.dynamics import kinetic_energy, mass_matrix
 from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
-from solver.rails.params import Contact, Models, Scene, Slider
+from solver.rails.params import RESTITUTION_MODELS, Contact, Models, Scene, Slider
+from solver.rails.restitution import yield_velocity
 
 #: Fast enough to run a second time with the JIT off (HDI_DISABLE_JIT=1, .ci/run).
 pytestmark = pytest.mark.jitless
@@ -283,6 +285,71 @@ def test_lone_corner_resolution_is_the_impact_map(corner, mu, alpha, rule):
         relative = -n @ v + surface_slope(scene, corner, float(q[1])) * scene.disk.speed
         assert impacts[0].approach_before == pytest.approx(relative, rel=1e-12, abs=0)
         assert not contact.any_held
+
+
+def source_response(scene: Scene, corner: int) -> float:
+    """G = J - x1 J1 - x2 J2 from the source's coefficients (J2 = -x2 / I2, sign corrected): 1 / the effective mass."""
+    s, mu = scene.slider, scene.contact.mu
+    m, a, I1, I2, e = s.mass, s.cg_offset, s.pitch_inertia, s.roll_inertia, s.friction_lever
+    x1, x2 = corner_positions(s)[corner]
+    det = m * I1 - (m * a) ** 2
+    return (I1 + m * a * (x1 + e * mu)) / det + x1 * (m * a + m * (x1 + e * mu)) / det + x2 * x2 / I2
+
+
+@pytest.mark.parametrize("law", RESTITUTION_MODELS)
+@pytest.mark.parametrize("corner", CORNER_INDICES)
+@pytest.mark.parametrize("mu", [0.0, 0.5, 1.5])
+def test_lone_corner_impact_applies_and_records_its_law_s_coefficient(law, corner, mu):
+    # the coefficient an impact records is the one it applied: the relative normal velocity U + eps V reverses by
+    # it, the generalized momentum changes by the impulse along g, and under Thornton's law it is contact.alpha
+    # e_T(V / V_y) with V_y of the corner's effective mass 1 / G (G from the source's J, J1, J2)
+    scene = scene_with(mu=mu, alpha=0.9, wedging=True, restitution=law, corner_radius=50e-6)  # V_y ~ 17 mm/s
+    x1, x2 = corner_positions(scene.slider)[corner]
+    n = corner_normal(x1, x2)
+    g = impulse_direction(x1, x2, mu, scene.slider.friction_lever)
+    M = mass_matrix(scene.slider)
+    c = scene.contact
+    v_y = yield_velocity(c.corner_radius, c.contact_modulus, c.yield_pressure, 1.0 / source_response(scene, corner))
+    rng = np.random.default_rng(2000 + 100 * corner + int(10 * mu))
+    speeds = []
+    for _ in range(20):
+        q, v = lone_corner_case(rng, scene, corner)
+        acc = rng.normal(0.0, [1e3, 1e6, 1e6])
+        acc = acc if n @ acc > 0.0 else -acc  # lifted by the film: not pressed on, no hold
+        impacts = []
+        v_after = resolve_impacts(scene, q, v.copy(), 0.0, free_contact(scene), acc, impacts, 1e-9 * 50e-9)
+        (imp,) = impacts
+        speed = imp.approach_before
+        speeds.append(speed / v_y)
+        if law == "constant":
+            assert imp.alpha == c.alpha and math.isnan(imp.yield_velocity)
+        else:
+            assert imp.yield_velocity == pytest.approx(v_y, rel=1e-12, abs=0)
+            assert imp.alpha == pytest.approx(c.alpha * thornton_e(speed, v_y), rel=1e-14, abs=0)
+        assert not imp.held
+        assert imp.approach_after == pytest.approx(-imp.alpha * speed, rel=1e-10, abs=0)
+        scale = np.abs(M) @ (np.abs(v_after) + np.abs(v))
+        assert np.all(np.abs(M @ (v_after - v) - imp.impulse * g) <= 16 * EPS * scale)
+    if law == "thornton":  # the random approaches cover the elastic and the plastic side of V_y
+        assert min(speeds) < 1.0 < max(speeds)
+
+
+def test_the_constant_law_is_the_source_s_formula_to_the_last_bit():
+    # restitution = "constant" must keep every scene-1 result: the map's impulse is (1 + alpha) (U + eps V) / G
+    # exactly as before the law could be chosen
+    scene = scene_with(mu=0.5, alpha=0.85, wedging=True)
+    assert scene.contact.restitution == "constant"
+    minv = np.linalg.inv(mass_matrix(scene.slider))
+    for corner in CORNER_INDICES:
+        x1, x2 = corner_positions(scene.slider)[corner]
+        n = corner_normal(x1, x2)
+        response = minv @ impulse_direction(x1, x2, 0.5, scene.slider.friction_lever)
+        for v in approaching_velocities(np.random.default_rng(80 + corner), scene, corner):
+            v_after, impulse = impact_map(SCENE1_ATTITUDE, v, corner, scene, minv)
+            relative = -float(n @ v) + surface_slope(scene, corner, float(SCENE1_ATTITUDE[1])) * scene.disk.speed
+            expected = (1.0 + 0.85) * relative / float(n @ response)
+            assert impulse == expected
+            assert np.array_equal(v_after, v + response * expected)
 
 
 @pytest.mark.parametrize("corner", [c for c in CORNER_INDICES if corner_is_front(Slider())[c]])

@@ -27,6 +27,10 @@ from solver.rails.params import SECTIONS, Contact, Models, Numerics, Scene, Slid
         (lambda: Contact(mu=-0.5), "contact.mu", "-0.5", ">= 0"),
         (lambda: Numerics(dt=0.0), "numerics.dt", "0.0", "> 0"),
         (lambda: Numerics(nx_taper=4), "numerics.nx_taper", "4", ">= 5"),
+        (lambda: Contact(corner_radius=-1e-6), "contact.corner_radius", "-1e-06", "> 0 [m]"),
+        (lambda: Contact(contact_modulus=-94e9), "contact.contact_modulus", "-94000000000.0", "> 0 [Pa]"),
+        (lambda: Contact(yield_pressure=0.0), "contact.yield_pressure", "0.0", "> 0 [Pa]"),
+        (lambda: Contact(restitution="plastic"), "contact.restitution", "'plastic'", "'constant', 'thornton'"),
     ],
 )
 def test_out_of_range_value_names_key_value_and_range(build, key, value, allowed):
@@ -34,6 +38,17 @@ def test_out_of_range_value_names_key_value_and_range(build, key, value, allowed
         build()
     message = str(info.value)
     assert key in message and value in message and allowed in message
+
+
+def test_thornton_refuses_a_yield_pressure_whose_contact_outgrows_the_corner():
+    # Hertz's contact radius at yield, pi p_y R / (2 E*), reaches R at p_y = 2 E* / pi = 59.8 GPa for E* = 94 GPa
+    with pytest.raises(ParameterError) as info:
+        Contact(restitution="thornton", contact_modulus=94e9, yield_pressure=60e9)
+    message = str(info.value)
+    assert "contact.yield_pressure = 60000000000.0" in message and "contact.contact_modulus" in message
+    assert "2 E*/pi = 5.98423e+10" in message
+    Contact(restitution="thornton", contact_modulus=94e9, yield_pressure=59e9)
+    Contact(restitution="constant", contact_modulus=94e9, yield_pressure=60e9)  # unused by the constant law
 
 
 def test_too_few_taper_nodes_mentions_the_taper():

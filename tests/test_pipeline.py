@@ -8,7 +8,7 @@ import tomllib
 import numpy as np
 import pytest
 import xarray as xr
-from conftest import cf_errors
+from conftest import cf_errors, thornton_e
 
 from pipeline.classify import classify_impulses
 from pipeline.cli import main
@@ -168,6 +168,32 @@ def test_cli_fly_simulate_plot(tmp_path, capsys):
     assert cf_errors(run_nc) == []
     assert main(["plot", str(run_nc), "-o", str(png)]) == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+
+
+@pytest.mark.parametrize("law", ["constant", "thornton"])
+def test_cli_simulate_records_each_impact_s_speed_coefficient_and_yield_velocity(tmp_path, capsys, law):
+    # the check: hdi simulate ... --set contact.restitution=thornton --set contact.corner_radius=10e-6
+    # writes impact_velocity, impact_alpha and impact_yield_velocity, and every impact_alpha (of a corner not held
+    # by the chattering rule) is contact.alpha times e_T of that impact to round-off
+    run_nc = tmp_path / "run.nc"
+    sets = [a for s in SMALL for a in ("--set", s)]
+    sets += ["--set", f"contact.restitution={law}", "--set", "contact.corner_radius=10e-6"]
+    sets += ["--set", "contact.alpha=0.9", "--set", "numerics.t_end=100e-6"]
+    assert main(["simulate", str(DEFAULT_SCENE), *sets, "-o", str(run_nc)]) == 0
+    out = capsys.readouterr().out
+    assert ("V_y =" in out) == (law == "thornton")
+    assert cf_errors(run_nc) == []
+    ds = open_result(run_nc)
+    speed, alpha = ds["impact_velocity"].values, ds["impact_alpha"].values
+    v_yield, held = ds["impact_yield_velocity"].values, ds["impact_held"].values == 1
+    assert speed.size >= 2 and not held.any()
+    np.testing.assert_array_equal(speed, ds["impact_approach_before"].values)
+    assert ds["impact_alpha"].attrs["units"] == "1" and ds["impact_yield_velocity"].attrs["units"] == "m s-1"
+    if law == "constant":
+        assert (alpha == 0.9).all() and np.isnan(v_yield).all()
+        return
+    assert np.all(np.abs(alpha - 0.9 * thornton_e(speed, v_yield)) <= 4 * np.finfo(float).eps)
+    assert np.all(v_yield > 0.0) and np.any(speed > 2 * v_yield) and alpha.min() < 0.8
 
 
 def test_cli_bad_input_exits_2_before_work(capsys):

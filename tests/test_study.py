@@ -26,6 +26,8 @@ from pipeline.cli import main
 from pipeline.config import ConfigError
 from pipeline.data.netcdf import open_result
 from pipeline.data.studyset import grid_boundary
+from pipeline.figures.common import pyplot
+from pipeline.figures.rails import log_spaced, plot_stability_map
 from pipeline.run.fanout import dask_client, execute, run_study
 from pipeline.run.ledger import Ledger
 from pipeline.run.runner import run_case
@@ -108,6 +110,23 @@ def test_fig17_study_file_expands_to_the_issue_grid():
     assert (case.scene.contact.mu, case.scene.contact.alpha, case.scene.initial.zdot) == (0.5, 0.85, -0.01)
 
 
+RADII = '[[axes]]\nkey = "contact.corner_radius"\nvalues = [1e-6, 3.162e-6, 10e-6, 31.62e-6, 100e-6]\n'
+
+
+def test_fig17_thornton_study_file_expands_to_the_issue_grid():
+    # friction 0-1 by corner radius 1-100 um (10 per decade) by the two disturbances; restitution by Thornton's law
+    study = load_study(ROOT / "studies" / "fig17_thornton.toml")
+    assert study.dims == ("mu", "corner_radius", "zdot0") and study.shape == (11, 21, 2)
+    radii = np.array(study.axis("corner_radius").values)
+    np.testing.assert_allclose(radii, np.logspace(-6, -4, 21), rtol=5e-4)
+    case = study.case((5, 10, 1))
+    c = case.scene.contact
+    assert (c.restitution, c.mu, c.corner_radius, case.scene.initial.zdot) == ("thornton", 0.5, 10e-6, -0.02)
+    assert {"first_impact_alpha", "first_yield_velocity"} <= set(study.variables)
+    assert study.boundary.lattice == "axis" and study.boundary.tolerance is None
+    assert load_study(study.path, mode="boundary").mode == "boundary"
+
+
 @pytest.mark.parametrize(
     ("axes", "extra", "expected"),
     [
@@ -121,6 +140,12 @@ def test_fig17_study_file_expands_to_the_issue_grid():
         ('[[axes]]\nkey = "contact.mu"\nvalues = [0.1]\n', "[extras]\na = 1\n", "unknown section"),
         ('[[axes]]\nkey = "contact.mu"\nvalues = [0.1]\n', '[boundary]\naxis = "contact.alpha"\ntolerance = 0.1\n',
          "not one of the axes"),
+        (RADII, '[boundary]\naxis = "contact.corner_radius"\nlattice = "log"\n', "'log' is not allowed"),
+        (RADII, '[boundary]\naxis = "contact.corner_radius"\nlattice = "axis"\ntolerance = 1e-6\n',
+         "[boundary] tolerance: is not used with lattice = 'axis'"),
+        (RADII.replace("1e-6, 3.162e-6", "3.162e-6, 1e-6"), '[boundary]\naxis = "contact.corner_radius"\n'
+         'lattice = "axis"\n', "in increasing order"),
+        (RADII.replace("[1e-6", "[-1e-6"), "", "contact.corner_radius = -1e-06 is not allowed: must be > 0 [m]"),
     ],
 )  # fmt: skip
 def test_bad_study_files_are_rejected_naming_file_and_key(tmp_path, axes, extra, expected):
@@ -283,6 +308,46 @@ def test_bisection_finds_the_grid_boundary_with_fewer_runs(tmp_path, side):
     # cold line: 2 ends + ceil(log2 20) = 7; continued lines a few runs each
     assert b.computed <= 7 + 10 * (5 if side == "jumpy" else 3), b.computed
     assert b.computed < 231 / 4
+
+
+def test_bisection_on_the_axis_values_of_a_log_axis_finds_the_grid_boundary(tmp_path):
+    # lattice = "axis": the bisection probes the axis's own (log-spaced) values, so its runs are the grid's
+    radii = [float(f"{r:.4g}") for r in np.logspace(-6, -4, 21)]
+    axes = MU_ALPHA.replace("values = [0.0, 0.5]", "start = 0.0\nstop = 1.0\nstep = 0.1").replace(
+        'key = "contact.alpha"\ndim = "alpha"\nstart = 0.5\nstop = 1.0\nstep = 0.25',
+        f'key = "contact.corner_radius"\ndim = "corner_radius"\nvalues = {radii}',
+    )
+    extra = '[boundary]\naxis = "contact.corner_radius"\nlattice = "axis"\n'
+    grid = load_study(write_study(tmp_path, axes, extra=extra))
+
+    def run(scene_dict, run_id, impacts_kept):  # stable iff R <= 30 um x 10^(-2 mu)
+        c = scene_dict["contact"]
+        return {"run_id": run_id, "status": 0, "stable": int(c["corner_radius"] <= 30e-6 * 10 ** (-2 * c["mu"]))}
+
+    g = run_study(grid, tmp_path / "g.nc", workers=0, quiet=True, runner=run, ledger_dir=tmp_path / "lg")
+    b = run_study(load_study(grid.path, mode="boundary"), tmp_path / "b.nc", workers=0, quiet=True, runner=run,
+                  ledger_dir=tmp_path / "lb")  # fmt: skip
+    lower, upper = g.dataset["boundary_lower"].values, g.dataset["boundary_upper"].values
+    np.testing.assert_array_equal(b.dataset["boundary_lower"].values, lower)
+    np.testing.assert_array_equal(b.dataset["boundary_upper"].values, upper)
+    assert lower[0] == 25.12e-6 and upper[0] == 31.62e-6 and np.isnan(lower[-1]) and upper[-1] == 1e-6
+    np.testing.assert_array_equal(b.dataset["corner_radius"].values, radii)
+    assert b.dataset.attrs["boundary_lattice"] == "the axis values" and "boundary_tolerance" not in b.dataset.attrs
+    assert b.computed < g.computed / 3
+    # the map draws a log-spaced axis on a log scale, the boundary through the bracket's geometric middle
+    fig = plot_stability_map(g.dataset, b.dataset)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log" and ax.get_xscale() == "linear"
+    line = next(line for line in ax.get_lines() if line.get_label() == "boundary (grid)")
+    np.testing.assert_allclose(line.get_ydata(), np.sqrt(lower * upper), rtol=1e-15)
+    pyplot().close(fig)
+
+
+def test_log_spaced_axes_are_told_from_linear_ones():
+    assert log_spaced(np.array([float(f"{r:.4g}") for r in np.logspace(-6, -4, 21)]))
+    assert not log_spaced(np.linspace(0.0, 1.0, 21))  # fig17's alpha
+    assert not log_spaced(np.array([1000.0, 1001.0, 1002.0]))  # nearly geometric, but a constant step
+    assert not log_spaced(np.array([1e-6, 1e-5]))  # two values say nothing about the spacing
 
 
 def test_bisection_reuses_grid_runs_from_the_ledger(tmp_path):

@@ -111,5 +111,6 @@ def query(path: str | Path, where: list[str], variables: list[str] | None = None
 
 
 def boundary_table(ds: xr.Dataset) -> str:
+    """The bracket per line, floats to 4 significant digits (a corner radius in metres stays readable)."""
     names = [n for n in ("boundary_lower", "boundary_upper", "boundary_runs", "boundary_monotonic") if n in ds]
-    return ds[names].to_dataframe()[names].to_string()
+    return ds[names].to_dataframe()[names].to_string(float_format=lambda x: f"{x:.4g}")

@@ -65,6 +65,10 @@ def fly_dataset(steady: SteadyFlight, scene: Scene, wall_time: float = float("na
     return ds
 
 
+#: Flags of ``impact_held``.
+HELD_FLAGS = {"flag_values": np.array([0, 1], dtype=np.int8), "flag_meanings": "free held"}
+
+
 def run_summary(result: Result) -> dict[str, Any]:
     """Plain scalars of one run: classification, status and work (picklable, for studies)."""
     impulses = np.array([i.impulse for i in result.impacts])
@@ -91,6 +95,31 @@ def run_dataset(result: Result, scene: Scene) -> xr.Dataset:
         ),
         "impact_approach_after": var(
             [i.approach_after for i in imp], ("impact",), "m s-1", "relative normal approach velocity U + eps V after"
+        ),
+        "impact_velocity": var(
+            [i.approach_before for i in imp],
+            ("impact",),
+            "m s-1",
+            "normal approach speed U + eps V that enters the impulse and the restitution law (wedging included)",
+        ),
+        "impact_alpha": var(
+            [i.alpha for i in imp],
+            ("impact",),
+            "1",
+            "coefficient of restitution applied (contact.restitution; 0 for a plastic impact of a held corner)",
+        ),
+        "impact_yield_velocity": var(
+            [i.yield_velocity for i in imp],
+            ("impact",),
+            "m s-1",
+            "Thornton's yield velocity of the corner's effective mass (NaN under the constant law)",
+        ),
+        "impact_held": var(
+            np.array([i.held for i in imp], dtype=np.int8),
+            ("impact",),
+            "1",
+            "corner held on the asperities after the impact (chattering rule)",
+            **HELD_FLAGS,
         ),
         **{
             name: var(summary[name], (), RAILS_OUTPUTS[name].units, RAILS_OUTPUTS[name].long_name)

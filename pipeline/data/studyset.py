@@ -205,7 +205,10 @@ def _add_bisection(ds: xr.Dataset, study: Study, lines: list[dict[str, Any]]) ->
         mono, other, "1", "1 if the probes of the line are consistent with a single crossing",
         flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="several_crossings single_crossing",
     )  # fmt: skip
-    ds.attrs["boundary_tolerance"] = study.boundary.tolerance
+    if study.boundary.tolerance is None:
+        ds.attrs["boundary_lattice"] = "the axis values"
+    else:
+        ds.attrs["boundary_tolerance"] = study.boundary.tolerance
 
 
 #: Outputs a "statistics" study reports (interval shrinkage, refinement), where it keeps them.

@@ -99,9 +99,32 @@ def plot_fly(ds: xr.Dataset) -> Figure:
 CELL_COLOURS = {"stable": "#9ecae1", "unstable": "#fdae6b", "failed": "0.55", "not run": "white"}
 
 
-def _edges(values: np.ndarray) -> np.ndarray:
-    """Cell edges around (possibly non-uniform) centres."""
+#: Relative spread of the ratios of consecutive values below which an axis is log-spaced (a study file writes
+#: log-spaced values to a few digits, e.g. 1.259e-6, 1.585e-6, ...).
+LOG_SPACING_TOLERANCE = 0.01
+
+
+def log_spaced(values: np.ndarray) -> bool:
+    """True for three or more increasing positive values with a constant ratio and no constant step (a log axis)."""
     v = np.asarray(values, dtype=float)
+    if v.size < 3 or np.any(v <= 0.0):
+        return False
+    ratios, steps = v[1:] / v[:-1], np.diff(v)
+    geometric = np.all(ratios > 1.0) and np.ptp(ratios) <= LOG_SPACING_TOLERANCE * (ratios.mean() - 1.0)
+    arithmetic = np.ptp(steps) <= LOG_SPACING_TOLERANCE * np.abs(steps).mean()
+    return bool(geometric and not arithmetic)
+
+
+def _middle(lower: np.ndarray, upper: np.ndarray, log: bool) -> np.ndarray:
+    """The middle of a bracket: arithmetic, or geometric on a log axis."""
+    return np.sqrt(lower * upper) if log else 0.5 * (lower + upper)
+
+
+def _edges(values: np.ndarray) -> np.ndarray:
+    """Cell edges around (possibly non-uniform) centres; geometric midpoints for log-spaced centres."""
+    v = np.asarray(values, dtype=float)
+    if log_spaced(v):
+        return np.exp(_edges(np.log(v)))
     if v.size == 1:
         return np.array([v[0] - 0.5, v[0] + 0.5])
     mid = 0.5 * (v[1:] + v[:-1])
@@ -119,7 +142,8 @@ def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Fig
     Horizontal: the first axis that is not the boundary axis (mu); vertical:
     the boundary axis (alpha).  The boundary is drawn through the middle of
     its bracket with the bracket shaded; ``overlay`` (a boundary-mode study of
-    the same axes) adds its bisection brackets as error bars.
+    the same axes) adds its bisection brackets as error bars.  A log-spaced
+    axis (a corner radius) is drawn on a log scale, with geometric middles.
     """
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
@@ -143,17 +167,18 @@ def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Fig
         klass = np.where(status == -1, 2, klass)
         klass = np.where(status == -2, 3, klass)
         x, y = ds[xdim].values, ds[ydim].values
+        ylog = log_spaced(y)
         ax.pcolormesh(_edges(x), _edges(y), klass, cmap=cmap, vmin=-0.5, vmax=3.5, edgecolors="0.85", linewidth=0.3)
         if "boundary_lower" in cell:
             _draw_boundary(ax, x, cell, "k", "boundary (grid)" if cell.attrs.get("boundary_method") == "grid"
-                           else "boundary (bisection)")  # fmt: skip
+                           else "boundary (bisection)", ylog)  # fmt: skip
         if overlay is not None and "boundary_lower" in overlay:
             osel = overlay.sel(sel) if sel else overlay
-            mid = 0.5 * (osel["boundary_lower"].values + osel["boundary_upper"].values)
-            half = 0.5 * (osel["boundary_upper"].values - osel["boundary_lower"].values)
+            lower, upper = osel["boundary_lower"].values, osel["boundary_upper"].values
+            mid = _middle(lower, upper, ylog)
             runs = int(osel["boundary_runs"].sum())
-            ax.errorbar(overlay[xdim].values, mid, yerr=half, fmt="o", ms=3.5, color="tab:purple", capsize=3,
-                        lw=1.2, label=f"bisection bracket ({runs} runs)")  # fmt: skip
+            ax.errorbar(overlay[xdim].values, mid, yerr=np.array([mid - lower, upper - mid]), fmt="o", ms=3.5,
+                        color="tab:purple", capsize=3, lw=1.2, label=f"bisection bracket ({runs} runs)")  # fmt: skip
         if "refined" in cell:
             refined = cell["refined"].transpose(ydim, xdim).values == 1
             changed = refined & (cell["stable_cheap"].transpose(ydim, xdim).values != stable)
@@ -166,6 +191,8 @@ def plot_stability_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Fig
         ax.set_title(f"{title}  ({ran} runs)" if title else f"{ran} runs", fontsize=10)
         ax.set_xlabel(_label(ds, xdim))
         ax.set_ylabel(_label(ds, ydim))
+        if ylog:
+            ax.set_yscale("log")
         ax.set_xlim(_edges(x)[0], _edges(x)[-1])
         ax.set_ylim(_edges(y)[0], _edges(y)[-1])
     handles = [Patch(facecolor=CELL_COLOURS[k], edgecolor="0.6", label=k) for k in ("stable", "unstable")]
@@ -183,8 +210,8 @@ def _product(ds: xr.Dataset, dims: list[str]) -> list[tuple]:
     return list(itertools.product(*(ds[d].values.tolist() for d in dims)))
 
 
-def _draw_boundary(ax, x: np.ndarray, cell: xr.Dataset, colour: str, label: str) -> None:
+def _draw_boundary(ax, x: np.ndarray, cell: xr.Dataset, colour: str, label: str, log: bool = False) -> None:
     lower = cell["boundary_lower"].values
     upper = cell["boundary_upper"].values
     ax.fill_between(x, lower, upper, color=colour, alpha=0.18, step=None, lw=0)
-    ax.plot(x, 0.5 * (lower + upper), color=colour, lw=1.6, marker=".", label=label)
+    ax.plot(x, _middle(lower, upper, log), color=colour, lw=1.6, marker=".", label=label)

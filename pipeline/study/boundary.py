@@ -2,7 +2,8 @@
 
 For every combination of the other axes (a *line*), the bisected axis
 (restitution in Figure 17) is searched on a lattice of spacing ``tolerance``
-over its range, assuming one crossing: stable on ``stable_side`` of the
+over its range (or on the axis's own values, ``lattice = "axis"``, e.g. the
+log-spaced corner radii of ``studies/fig17_thornton.toml``), assuming one crossing: stable on ``stable_side`` of the
 boundary, unstable on the other.  Lattice indices below the boundary are
 called *low*.  With L the probed low indices and H the probed high ones,
 

@@ -11,7 +11,9 @@ A study file (TOML) holds
     [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
                values = [...]  or  start, stop, step  (stop included)
     [outputs]  variables (a subset of the kind's outputs, pipeline.classify), impacts (first impacts kept per run)
-    [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above"
+    [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above",
+               lattice = "uniform" (the axis's range at spacing ``tolerance``, the default) | "axis" (the axis's
+               own values, increasing, e.g. log-spaced; no tolerance)
 
 Everything is checked when the file is loaded, before any run: unknown
 sections or keys, an axis over a key the scene does not have, an empty or
@@ -47,7 +49,7 @@ ALLOWED = {
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
     "outputs": {"variables", "impacts"},
-    "boundary": {"axis", "tolerance", "stable_side"},
+    "boundary": {"axis", "tolerance", "stable_side", "lattice"},
 }
 ROUND = 12  # decimals: axis values are rounded so that the same value always hashes the same
 #: Dimension of a study's realisations of a stochastic input (one seed each, see SceneKind.seed_key).
@@ -68,11 +70,16 @@ class Axis:
     long_name: str = ""
 
 
+#: Lattices a boundary may be bisected on: the axis's range at spacing ``tolerance``, or the axis's own values.
+BOUNDARY_LATTICES = ("uniform", "axis")
+
+
 @dataclass(frozen=True)
 class Boundary:
     axis: str  # scene key of the bisected axis
-    tolerance: float
+    tolerance: float | None  # lattice spacing (None: the lattice is the axis's own values)
     stable_side: str = "below"
+    lattice: str = "uniform"
 
 
 @dataclass(frozen=True)
@@ -409,15 +416,15 @@ def _realization_axis(path: Path, n: Any, base: dict[str, Any], axes: tuple[Axis
 
 
 def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], int]:
-    """[outputs]: the kind's outputs a study keeps (its required ones always) and the first impacts kept."""
+    """[outputs]: the kind's outputs a study keeps (by default its ``study_outputs``; its required ones always)
+    and the first impacts kept."""
     _check_keys(path, "[outputs]", outputs, ALLOWED["outputs"])
-    known = adapter.study_outputs
-    variables = outputs.get("variables", list(known))
+    variables = outputs.get("variables", list(adapter.study_outputs))
     if not isinstance(variables, list):
         raise _study_error(path, "[outputs] variables", "must be a list")
     for v in variables:
-        if v not in known:
-            allowed = ", ".join(known)
+        if v not in adapter.outputs:
+            allowed = ", ".join(adapter.outputs)
             raise _study_error(path, "[outputs] variables", f"unknown variable {v!r} (allowed: {allowed})")
     for needed in reversed(adapter.required_outputs):
         if needed not in variables:
@@ -429,7 +436,7 @@ def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], i
 
 
 def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...]) -> Boundary:
-    """[boundary]: the axis to bisect, its tolerance and the side the stable runs are on."""
+    """[boundary]: the axis to bisect, its lattice (tolerance, or the axis's own values) and the stable side."""
     _check_keys(path, "[boundary]", b, ALLOWED["boundary"])
     axis_key = b.get("axis")
     if axis_key not in {a.key for a in axes}:
@@ -439,14 +446,26 @@ def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...]) -> Boundary:
     values = next(a.values for a in axes if a.key == axis_key)
     if not all(isinstance(v, int | float) for v in values) or len(values) < 2:
         raise _study_error(path, "[boundary] axis", f"{axis_key!r} needs at least two numeric values")
+    side = b.get("stable_side", "below")
+    if side not in ("below", "above"):
+        raise _study_error(path, "[boundary] stable_side", f"{side!r} is not allowed (allowed: below, above)")
+    kind = b.get("lattice", "uniform")
+    if kind not in BOUNDARY_LATTICES:
+        raise _study_error(path, "[boundary] lattice", f"{kind!r} is not allowed (allowed: "
+                           f"{', '.join(BOUNDARY_LATTICES)})")  # fmt: skip
+    if kind == "axis":
+        if "tolerance" in b:
+            raise _study_error(path, "[boundary] tolerance", "is not used with lattice = 'axis' (the bisection "
+                               "runs on the axis's own values): remove it")  # fmt: skip
+        if any(upper <= lower for lower, upper in itertools.pairwise(values)):
+            raise _study_error(path, "[boundary] lattice", f"= 'axis' needs the values of {axis_key!r} in "
+                               f"increasing order ({list(values)})")  # fmt: skip
+        return Boundary(axis_key, None, side, kind)
     tol = b.get("tolerance")
     if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 < tol <= max(values) - min(values):
         raise _study_error(
             path, "[boundary] tolerance", f"{tol!r} must be a number in (0, {max(values) - min(values):g}]"
         )
-    side = b.get("stable_side", "below")
-    if side not in ("below", "above"):
-        raise _study_error(path, "[boundary] stable_side", f"{side!r} is not allowed (allowed: below, above)")
     return Boundary(axis_key, float(tol), side)
 
 
@@ -489,9 +508,12 @@ def _flatten(table: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def lattice(study: Study) -> tuple[float, ...]:
-    """Values of the bisected axis: its range at the boundary tolerance (rounded like the grid's values)."""
+    """Values of the bisected axis: its range at the boundary tolerance (rounded like the grid's values), or the
+    axis's own values (``lattice = "axis"``)."""
     assert study.boundary is not None
     values = study.axis(study.boundary.axis).values
+    if study.boundary.tolerance is None:
+        return tuple(float(v) for v in values)
     lo, hi = min(values), max(values)
     return axis_range(float(lo), float(hi), study.boundary.tolerance)
 

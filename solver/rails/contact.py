@@ -27,6 +27,11 @@ velocity is U + eps V (wedging).  Restitution reverses it:
 G > 0 is required (otherwise friction would pull the corner into the disk,
 Painleve's paradox); for the source's slider that holds for mu < 5.71 at the
 front corners (the roll term x2^2/I2 included) and always at the rear ones.
+
+alpha is the coefficient of the restitution law ``contact.restitution``
+(:mod:`solver.rails.restitution`): ``contact.alpha`` itself, or ``contact.alpha``
+times Thornton's e_T of the approach speed U + eps V over the yield velocity of
+the corner's effective mass 1 / G.
 """
 
 from __future__ import annotations
@@ -40,6 +45,7 @@ from solver.errors import ContactError
 from solver.rails.dynamics import mass_matrix
 from solver.rails.geometry import CORNERS, corner_is_front, corner_positions
 from solver.rails.params import Scene
+from solver.rails.restitution import restitution
 
 #: Relative approach velocities below this fraction of the corners' speed scale are round-off, not approaches
 #: (a plastic impact leaves 0 +- round-off; counting that as an approach struck the corner again).
@@ -67,7 +73,13 @@ RELEASE_VELOCITY = 1e-6
 
 @dataclass(frozen=True)
 class Impact:
-    """One impact: time [s], corner index (0..3 = A..D), impulse [N s], approach velocities [m/s]."""
+    """One impact: time [s], corner index (0..3 = A..D), impulse [N s], approach velocities [m/s].
+
+    ``approach_before`` is the speed U + eps V the restitution law reads; ``alpha`` the coefficient applied
+    (0 where the chattering rule's target, zero normal velocity, replaced restitution: a plastic impact);
+    ``yield_velocity`` Thornton's V_y of the corner [m/s] (NaN under the constant law); ``held``: the corner is
+    held on the asperities after the impact (:class:`SustainedContact`).
+    """
 
     time: float
     corner: int
@@ -76,6 +88,9 @@ class Impact:
     approach_after: float
     normal_velocity_before: float
     normal_velocity_after: float
+    alpha: float
+    yield_velocity: float
+    held: bool
 
     @property
     def corner_letter(self) -> str:
@@ -122,7 +137,8 @@ def restitution_impact(
     relative = -float(n @ v) + eps * scene.disk.speed
     if relative <= 0.0:
         return v.copy(), 0.0
-    impulse = (1.0 + scene.contact.alpha) * relative / G
+    alpha = float(restitution(scene.contact, np.array([relative]), np.array([G]))[0][0])
+    impulse = (1.0 + alpha) * relative / G
     return v + response * impulse, impulse
 
 
@@ -301,7 +317,7 @@ def resolve_impacts(
     ndarray (3,)
         Generalized velocities after the impacts (projected onto the held corners' constraints).
     """
-    mu, alpha, V = scene.contact.mu, scene.contact.alpha, scene.disk.speed
+    mu, V = scene.contact.mu, scene.disk.speed
     normals = contact.normals
     touching = np.flatnonzero((np.abs(normals @ q - scene.disk.asperity_height) <= touch_tol) & contact.free)
     if touching.size == 0:
@@ -320,7 +336,6 @@ def resolve_impacts(
         hold = set(grazing)
         for _attempt in range(HOLD_ATTEMPTS):
             idx = np.array(active + sorted(hold - set(active)), dtype=int)
-            target = np.where(np.isin(idx, list(hold)), -gap_rates[idx], (1.0 + alpha) * w[idx])
             A = normals[idx] @ response[idx].T
             for G in np.diag(A):
                 if G <= 0.0:
@@ -328,6 +343,9 @@ def resolve_impacts(
                         f"friction mu = {mu} makes the impact indeterminate (n . M^-1 g = {G:.3g} <= 0, "
                         "Painleve's paradox)"
                     )
+            alpha, v_yield = restitution(scene.contact, w[idx], np.diag(A))
+            held = np.isin(idx, list(hold))
+            target = np.where(held, -gap_rates[idx], (1.0 + alpha) * w[idx])
             p = np.linalg.lstsq(A, target, rcond=LSTSQ_RCOND)[0]
             if p.min() < -PULL_TOLERANCE * max(float(np.abs(p).max()), TINY):
                 p = nnls(A, target)[0]
@@ -337,7 +355,7 @@ def resolve_impacts(
                 break
             hold |= newly
         p_floor = IMPULSE_FLOOR * max(float(p.max()), TINY)
-        for c, pc in zip(idx, p, strict=True):
+        for c, pc, alpha_c, v_yield_c, plastic in zip(idx, p, alpha, v_yield, held, strict=True):
             c = int(c)
             if c in hold:
                 contact.held[c] = True
@@ -346,7 +364,11 @@ def resolve_impacts(
                 u_before = -float(gap_rates[c])
                 u_after = -float(normals[c] @ v_new)
                 wedge = slopes[c] * V
-                impacts.append(Impact(t, c, float(pc), u_before + wedge, u_after + wedge, u_before, u_after))
+                applied = 0.0 if plastic else float(alpha_c)
+                impacts.append(
+                    Impact(t, c, float(pc), u_before + wedge, u_after + wedge, u_before, u_after, applied,
+                           float(v_yield_c), c in hold)
+                )  # fmt: skip
         v = v_new
         if contact.any_held:
             v = contact.project_velocity(v, t)

@@ -17,6 +17,7 @@ leading edge), roll moment = static_roll_moment - roll_stiffness*th2.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -94,8 +95,19 @@ class Disk(Section):
     asperity_height: float = quantity(0.050e-6, "m", "asperity height above the base plane", symbol="h0", lo=0.0)
 
 
+#: Restitution laws (``contact.restitution``), implemented in :mod:`solver.rails.restitution`.
+RESTITUTION_MODELS = ("constant", "thornton")
+
+
 @dataclass(frozen=True)
 class Contact(Section):
+    """Impacts at the rail corners: friction, restitution and its law, the contact's size and materials.
+
+    ``restitution = "thornton"`` applies alpha times Thornton's e_T(V / V_y) (:mod:`solver.rails.restitution`):
+    alpha is then the coefficient of an elastic impact.  ``corner_radius``, ``contact_modulus`` and
+    ``yield_pressure`` set V_y and are used by that law only.
+    """
+
     section = "contact"
     mu: float = quantity(0.5, "1", "Coulomb friction coefficient", symbol="mu", lo=0.0)
     alpha: float = quantity(0.8, "1", "coefficient of restitution", symbol="alpha", lo=0.0, hi=1.0)
@@ -108,6 +120,38 @@ class Contact(Section):
         "sustained contact (0 = never)",
         lo=0.0,
     )
+    restitution: str = quantity(
+        "constant",
+        "",
+        "restitution law: constant alpha, or alpha times Thornton's elastic-plastic e_T(V / V_y)",
+        choices=RESTITUTION_MODELS,
+    )
+    corner_radius: float = quantity(
+        10.0e-6,
+        "m",
+        "radius of the contact where a corner meets an asperity (thornton law)",
+        symbol="R",
+        lo=0.0,
+        lo_open=True,
+    )
+    contact_modulus: float = quantity(
+        94.0e9, "Pa", "composite modulus E* of slider and disk (thornton law)", symbol="E*", lo=0.0, lo_open=True
+    )
+    yield_pressure: float = quantity(
+        3.2e9, "Pa", "limiting contact pressure p_y (thornton law)", symbol="p_y", lo=0.0, lo_open=True
+    )
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        # Hertz's contact radius at yield is a_y = pi p_y R / (2 E*): a pressure at or above 2 E* / pi would need a
+        # contact wider than the corner (and a strain of order 1), outside the theory the law rests on.
+        limit = 2.0 * self.contact_modulus / math.pi
+        if self.restitution == "thornton" and self.yield_pressure >= limit:
+            raise ParameterError(
+                f"contact.yield_pressure = {self.yield_pressure!r} is not allowed with contact.contact_modulus = "
+                f"{self.contact_modulus!r}: must be < 2 E*/pi = {limit:g} [Pa] (the contact radius at yield, "
+                "pi p_y R / (2 E*), must stay below the corner radius R)"
+            )
 
 
 @dataclass(frozen=True)
