@@ -96,22 +96,23 @@ SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
 
 
 #: Scene 2's studies in reproduce: the four Table-I sweeps and the regime map, 8 track realisations per cell
-#: (200 + 130 runs: the smooth-disk cells of roughness_adhesion run once); then, unless --quick, the statistics
-#: study (3 time steps x 12 realisations; its dt = 0.1 and 0.05 us runs cost 2 and 4 times the default).
+#: (4 in the map); then, unless --quick, the statistics study (3 time steps x 8 realisations; its dt = 0.025 us
+#: runs cost twice the default).  They share one ledger (``.ledger/scene2``): a run is keyed by its scene, so the
+#: default cell that every sweep, the map and the statistics hold is computed once (268 runs, 198 distinct).
 SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction", "pad_preload_map")
 SCENE2_STATISTICS = "statistics"
 
 
 def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
-    """Scene 2: steady flight, one default 1-ms run, the four Table-I studies and the pad-preload regime map
-    with 8 realisations per cell, and (unless --quick) the statistics study with its report."""
+    """Scene 2: steady flight with its modes, one default 1-ms run, the four Table-I studies and the pad-preload
+    regime map, and (unless --quick) the statistics study with its report, on one shared ledger."""
     from pipeline.figures.common import save_figure
     from pipeline.kinds import plot_dataset
     from pipeline.run.fanout import run_study
     from pipeline.study.spec import load_study
 
     print("\nscene 2: partial-contact femto slider", flush=True)
-    fly_scene(load_scene(SCENE2), out / "chen_bogy2007_fly.nc", out / "chen_bogy2007_fly.png")
+    fly_scene(load_scene(SCENE2), out / "chen_bogy2007_fly.nc", out / "chen_bogy2007_fly.png", modes=True)
     print()
     simulate_scene(load_scene(SCENE2), out / "chen_bogy2007_run.nc", out / "chen_bogy2007_run.png")
     if args.skip_studies:
@@ -123,7 +124,7 @@ def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
         study = load_study(SCENE2.parent.parent / f"{name}.toml")
         runs = len({case.run_id for case in study.cases()})
         print(f"\nstudy {name}: {study.size} cells x realisations, {runs} distinct runs", flush=True)
-        o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / name, workers=args.workers,
+        o = run_study(study, out / f"{name}.nc", ledger_dir=out / ".ledger" / "scene2", workers=args.workers,
                       quiet=args.quiet)  # fmt: skip
         print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
               f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip

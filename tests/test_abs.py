@@ -126,8 +126,8 @@ PARAMETER_ERRORS = {
         ["numerics.settle_time", "0.001"],
     ),
     "output_interval not a multiple of dt": (
-        lambda d: d["numerics"].update(output_interval=0.3e-6),
-        ["numerics.output_interval", "3e-07"],
+        lambda d: d["numerics"].update(output_interval=0.33e-6),
+        ["numerics.output_interval", "3.3e-07"],
     ),
     "film_coupling not a coupling": (
         lambda d: d["numerics"].update(film_coupling="one_pass"),

@@ -24,14 +24,20 @@ of the step,
 
 second order, with spectral radius rho (``numerics.rho_infinity``) at
 infinite frequency: rho = 1 is the trapezoidal (average-acceleration)
-Newmark rule.  The asperity contact's rotational modes (MHz, far above any
-step we can afford) are stiff and hardening, and the trapezoidal rule
-feeds them energy (a free bounce on a smooth disk with no air and no
-friction rebounded with 5x its kinetic energy, 11x at dt / 4; 2.7x with
-rho = 0.5).  The default rho = 0 annihilates them (the bounce keeps 28-44 %
-of its kinetic energy: the rest went into the damped contact modes) at the
-price of 2 % algorithmic damping at omega dt = 0.4 (300 kHz at dt = 0.2 us),
-0.6 % at 200 kHz and 0.05 % below 80 kHz.  One step
+Newmark rule.  The asperity contact's modes (MHz) are stiff and
+hardening, and a step that does not resolve them can feed them energy:
+chen_bogy2007's trailing pad landing at 1 mm/s on the asperities (no air,
+no suspension; ``tests/test_partial.py``) leaves with E_after / E_before
+= 1.75, 0.992, 0.998, 1.0002 at dt = 0.2, 0.1, 0.05, 0.025 us under the
+trapezoidal rule, 0.84, 0.86, 0.90, 0.96 with rho = 0 (never more than
+1), and 1.41, 0.965, 0.986, 0.996 with rho = 0.5.  But rho < 1 also damps
+the resolved modes: the film's second pitch mode (729 kHz, damping ratio
+0.23 % on chen_bogy2007, :mod:`solver.abs.modes`) gets 0.107 from rho = 0
+at dt = 0.2 us and 5.1e-3 at 0.05 us, and its response to the track, which
+dominates the bouncing at the element, was set by the step (the 3-sigma
+doubled with every halving of dt).  The default, rho = 0.5 at dt = 0.05 us,
+adds 2.2e-4 to that mode and still damps what the step cannot resolve;
+with rho = 0.5 the step must stay at or below 0.1 us.  One step
 t_n -> t_n+1:
 
 1. predictor: the film is advanced along an attitude path q_n -> q*, with

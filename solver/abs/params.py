@@ -325,15 +325,24 @@ class AbsNumerics(Section):
         "scheme before cut cells)",
         choices=("fitted", "cut", "sampled"),
     )
-    dt: float = quantity(0.2e-6, "s", "time step", lo=0.0, lo_open=True)
+    dt: float = quantity(
+        0.05e-6,
+        "s",
+        "time step (resolves the second pitch mode: 729 kHz, omega dt = 0.23 on chen_bogy2007; hdi fly --modes)",
+        lo=0.0,
+        lo_open=True,
+    )
     t_end: float = quantity(1.0e-3, "s", "duration of a run", lo=0.0, lo_open=True)
     settle_time: float = quantity(0.2e-3, "s", "time before the bouncing statistics start", lo=0.0)
-    output_interval: float = quantity(1.0e-6, "s", "sampling interval of the stored time series", lo=0.0)
+    output_interval: float = quantity(
+        0.5e-6, "s", "sampling interval of the stored time series (its Nyquist frequency, 1 MHz, is above the modes)",
+        lo=0.0,
+    )  # fmt: skip
     rho_infinity: float = quantity(
-        0.0,
+        0.5,
         "1",
         "generalized-alpha spectral radius at infinite frequency (1: trapezoidal Newmark, no numerical damping; "
-        "< 1 damps the unresolved contact modes)",
+        "< 1 damps the unresolved contact modes, and adds damping to the resolved ones: hdi fly --modes)",
         lo=0.0,
         hi=1.0,
     )
