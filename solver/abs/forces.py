@@ -11,6 +11,7 @@ import numpy as np
 from solver.abs.face import AbsGrid
 from solver.abs.params import AbsScene
 from solver.kernels import surface as ksurf
+from solver.surface import ADHESION_LAWS, summit_coefficient
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +56,8 @@ class SurfaceModel:
         self.e_composite = e_comp
         self.gw_coef = 4.0 / 3.0 * c.summit_density * e_comp * math.sqrt(c.summit_radius)
         self.adh_coef = 8.0 * c.delta_gamma / (3.0 * self.eps)
+        self.adhesion_law = ADHESION_LAWS[scene.models.adhesion]
+        self.summit_coef = summit_coefficient(c.summit_density, c.summit_radius)
         self.mu = c.mu
         psi = math.radians(scene.disk.skew)
         t = scene.slider.thickness
@@ -69,9 +72,10 @@ class SurfaceModel:
         self.near = np.empty(self.area.size, dtype=np.int64)  # work array of :meth:`candidates`
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
-        #: The Greenwood-Williamson law's constants as the kernels take them
+        #: The Greenwood-Williamson law's and the adhesion law's constants as the kernels take them
         #: (:func:`solver.kernels.surface.generalized_forces`).
-        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.mu, self.friction_arm, self.reach, REACH_SIGMAS)
+        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, self.mu,
+                           self.friction_arm, self.reach, REACH_SIGMAS)  # fmt: skip
 
     def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
         """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
@@ -109,7 +113,7 @@ class SurfaceModel:
             return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
         dn, sn = np.ascontiguousarray(dn), np.ascontiguousarray(sn)
         out = np.empty((4, near.size))
-        ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, out)
+        ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, out)
         pc, dpc, pa, dpa = out
         if self.law == "elastic":
             pc, dpc_matrix = self._elastic_pressure(near, dn)

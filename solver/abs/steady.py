@@ -231,9 +231,9 @@ def _with_adhesion(scene: AbsScene, delta_gamma: float) -> AbsScene:
 class _HeightBalances:
     """The three balances at a prescribed element height, with delta_gamma as the third unknown.
 
-    The surface forces are affine in delta_gamma (the adhesion pressure is
-    adh_coef = 8 delta_gamma / (3 eps) times a function of the spacing;
-    contact and friction do not depend on it), so
+    The surface forces are affine in delta_gamma (the adhesion pressure of
+    either law is delta_gamma times a function of the spacing; contact and
+    friction do not depend on it), so
 
         r(q, dg) = (f_film(q) + f_s(q; 0) + dg a(q) + f_static) / scale,   a = f_s(q; 1) - f_s(q; 0),
 
