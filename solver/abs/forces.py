@@ -85,6 +85,31 @@ class SurfaceModel:
         near = np.flatnonzero(d_flat < self.reach + REACH_SIGMAS * s_flat)
         return self._on(near, d_flat[near], s_flat[near])
 
+    def touchdown_adhesion(self, d: np.ndarray, sigma: np.ndarray) -> tuple[float, float]:
+        """The fold estimate: adhesion force [N] (<= 0) of the whole face lowered to touch, and the lowering [m].
+
+        The face is moved towards the disk along z only (pitch and roll kept)
+        until its lowest contact patch sits at d = eps from the disk's mean
+        plane, and the scene's adhesion law is summed over every patch (no
+        reach: the whole face), with roughness ``sigma`` (nx, ny) [m].  Against
+        the preload it says, before any run, whether adhesion can out-pull the
+        suspension: near one preload or above expect no flying equilibrium
+        (:func:`solver.abs.steady.fly_abs` then reports the fold).  It is an
+        estimate, not the fold: on chen_bogy2007 (121 x 101) the branch folds
+        where it reads 0.77 preloads with the flat law and 1.42 with
+        asperity_dmt (the film's stiffness, not the preload, holds the pad).
+        """
+        if self.law == "none":
+            return 0.0, 0.0
+        d_flat = d.ravel()
+        lowering = float(d_flat.min()) - self.eps
+        out = np.empty((4, d_flat.size))
+        ksurf.surface_pressures(
+            np.ascontiguousarray(d_flat - lowering), np.ascontiguousarray(sigma.ravel()), self.eps, self.gw_coef,
+            self.adh_coef, self.adhesion_law, self.summit_coef, out,
+        )  # fmt: skip
+        return float(out[2] @ self.area), lowering
+
     def candidates(self, disk: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
         """The cells within reach (plus ``margin``) at attitude q over the disk heights ``disk`` (nx, ny) [m].
 
