@@ -64,6 +64,8 @@ def rails_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
 
 
 def abs_fly(steady: Any, scene: Any, wall: float) -> list[str]:
+    from solver.abs.steady import touchdown_text
+
     s, sf = scene.slider, steady.surface
     nx, ny = steady.pressure.shape
     return [
@@ -79,7 +81,11 @@ def abs_fly(steady: Any, scene: Any, wall: float) -> list[str]:
         f"y = {steady.min_spacing_y * 1e3:.4f} mm",
         f"  air-bearing force  {steady.air_force[0] * 1e3:.5f} mN",
         f"  contact force      {sf.contact * 1e3:.6f} mN, adhesion {sf.adhesion * 1e3:.6f} mN "
-        f"(RMS {scene.disk.rms * 1e9:g} nm, delta_gamma {scene.contact.delta_gamma} J/m2)",
+        f"(RMS {scene.disk.rms * 1e9:g} nm, delta_gamma {scene.contact.delta_gamma} J/m2, "
+        f"{scene.models.adhesion} adhesion law)",
+        f"  fold estimate      {touchdown_text(steady.touchdown_adhesion, scene.suspension.preload)}: the face "
+        f"lowered {steady.touchdown_lowering * 1e9:.3f} nm at this pitch and roll to touch (lowest point at eps); "
+        "near 1 preload or above, expect no flying equilibrium",
         f"  work               grid {nx} x {ny}, {steady.iterations} attitude iterations, "
         f"{steady.reynolds_solves} sparse Reynolds solves, {steady.wall_time:.2f} s",
     ]

@@ -35,6 +35,22 @@ which is p_LJ(d) for d >= eps (else 0) on a smooth disk.  On a smooth disk
 p_c + p_a therefore vanishes exactly at d = eps.  Coulomb friction, mu p_c,
 is left to the caller.
 
+Adhesion laws (``ADHESION_LAWS``, ``models.adhesion`` of a scene)
+------------------------------------------------------------------
+``flat``: the law above, on the nominal area of the cell.
+
+``asperity_dmt``: the Greenwood-Williamson summits of the contact law each
+pull like a DMT sphere: 2 pi R W(g) at the gap g > eps (Derjaguin, with
+W(g) = int_g^inf p_LJ the flat law's energy per area, W(eps) = -dgamma) and
+the pull-off -2 pi R dgamma once compressed past eps, so
+
+    p_a(d) = 2 pi R eta_s [-dgamma P(z > d - eps) + E[W(d - z); d - z > eps]],
+    dp_a/dd = -2 pi R eta_s p_a^flat(d),
+
+bounded by -2 pi R eta_s dgamma at contact and falling like d^-2 far away.
+Both are proportional to dgamma.  The derivation and the choice of DMT are
+in ``solver.kernels.surface``.
+
 The numerics (tables, quadratures, accuracy) are in ``solver.kernels.surface``.
 """
 
@@ -48,6 +64,8 @@ from numpy.typing import ArrayLike
 from .kernels import surface as kernels
 
 CONTACT_LAWS = ("greenwood_williamson", "elastic")
+#: Adhesion laws by name: the kernels' law codes.
+ADHESION_LAWS = {"flat": kernels.ADHESION_FLAT, "asperity_dmt": kernels.ADHESION_ASPERITY}
 
 
 class SurfacePressures(NamedTuple):
@@ -86,6 +104,11 @@ def adhesion_coefficient(dgamma: float, eps: float) -> float:
     return 8.0 * dgamma / (3.0 * eps)
 
 
+def summit_coefficient(summit_density: float, summit_radius: float) -> float:
+    """Pull-off pressure per unit dgamma of a fully compressed summit population, 2 pi R eta_s [1/m]."""
+    return 2.0 * np.pi * summit_radius * summit_density
+
+
 def lj_pressure(h: ArrayLike, dgamma: float, eps: float) -> np.ndarray:
     """Flat-flat Lennard-Jones pressure (8 dgamma / (3 eps)) [(eps/h)^9 - (eps/h)^3] [Pa] at gaps h [m]."""
     u = eps / np.asarray(h, dtype=float)
@@ -109,6 +132,8 @@ def surface_pressures(
     eps: float,
     gw_coef: float,
     dgamma: float,
+    adhesion: str = "flat",
+    summit_coef: float = 0.0,
     out: np.ndarray | None = None,
 ) -> SurfacePressures:
     """Greenwood-Williamson contact and adhesion pressures of n cells, with slopes d/dd.
@@ -125,6 +150,10 @@ def surface_pressures(
         (4/3) eta_s E' sqrt(R), see ``gw_coefficient``.
     dgamma : float [J/m^2]
         surface-energy change; the adhesion work per unit area.
+    adhesion : str
+        adhesion law, a key of ``ADHESION_LAWS``.
+    summit_coef : float [1/m]
+        2 pi R eta_s, see ``summit_coefficient`` (law ``asperity_dmt``).
     out : array (4, n), optional
         storage for the result (no allocation in a time loop).
 
@@ -138,9 +167,12 @@ def surface_pressures(
         raise ValueError("sigma must be >= 0")
     if eps <= 0.0:
         raise ValueError(f"eps must be > 0, got {eps}")
+    if adhesion not in ADHESION_LAWS:
+        raise ValueError(f"adhesion = {adhesion!r} is not a law: one of {', '.join(map(repr, ADHESION_LAWS))}")
     if out is None:
         out = np.empty((4, d.size))
     elif out.shape != (4, d.size) or out.dtype != np.float64 or not out.flags.c_contiguous:
         raise ValueError(f"out must be a C-contiguous float64 array of shape (4, {d.size})")
-    kernels.surface_pressures(d, sigma, eps, gw_coef, adhesion_coefficient(dgamma, eps), out)
+    adh_coef = adhesion_coefficient(dgamma, eps)
+    kernels.surface_pressures(d, sigma, eps, gw_coef, adh_coef, ADHESION_LAWS[adhesion], summit_coef, out)
     return SurfacePressures(out[0], out[1], out[2], out[3])

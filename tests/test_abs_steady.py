@@ -74,6 +74,12 @@ def test_strong_adhesion_reports_the_fold():
     assert 0.008 < fold < 0.08
     assert f"delta_gamma = {fold:.4g} J/m2" in str(info.value)
     assert "beyond it the pad is pulled onto the disk" in str(info.value)
+    # the fold estimate: the pull at touchdown is several preloads (5.5 with the flight's own attitude, 121 x 101)
+    ratio = -info.value.touchdown_adhesion / scene.suspension.preload
+    assert ratio > 1.0
+    assert f"fold estimate: adhesion at touchdown {info.value.touchdown_adhesion * 1e3:.3f} mN = {ratio:.3g}" in str(
+        info.value
+    )
     steady = fly_start(scene)
     assert f"the fold lies at delta_gamma = {fold:.4g}" in steady.note
     assert steady.surface.adhesion == 0.0

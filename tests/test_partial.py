@@ -16,6 +16,7 @@ Starting a run from a chosen attitude needs a hand-built ``AbsSteady``
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -28,7 +29,7 @@ from solver.abs.face import abs_grid
 from solver.abs.film import AbsFilm
 from solver.abs.forces import SurfaceForces, SurfaceModel
 from solver.abs.integrate import AbsResult, simulate_abs, summarize
-from solver.abs.params import AbsScene
+from solver.abs.params import ADHESION_LAWS, AbsScene
 from solver.abs.steady import AbsSteady, fly_start
 from solver.abs.track import Track
 from solver.kinds import scene_from_dict
@@ -308,9 +309,10 @@ def coarse_flight():
 
 
 @pytest.mark.jitless
+@pytest.mark.parametrize("adhesion", ADHESION_LAWS)
 @pytest.mark.parametrize("sigma", [0.0, 0.2e-9, 0.6e-9])
 @pytest.mark.parametrize("drop_by", [2.0e-9, 4.3e-9, 5.0e-9])
-def test_surface_jacobian_matches_central_differences(coarse_flight, sigma, drop_by):
+def test_surface_jacobian_matches_central_differences(coarse_flight, sigma, drop_by, adhesion):
     """SurfaceForces.dfdq = d f / d(z, pitch, roll) for GW contact + adhesion + friction (mu = 0.3, 6.65 deg skew).
 
     The slider is lowered by ``drop_by`` from steady flight (adhesion only,
@@ -319,9 +321,12 @@ def test_surface_jacobian_matches_central_differences(coarse_flight, sigma, drop
     1e-14 m (over L for the angles): the error falls like the step squared
     (measured 2.0e-4, 2.2e-6, 2.2e-8 of the largest entry for the smooth
     disk in light contact, where sqrt(eps - d) is steep; at most 1.1e-5,
-    1.1e-7, 2.4e-9 otherwise).
+    1.1e-7, 2.4e-9 otherwise).  Each adhesion law (the scene's own: flat).
     """
     scene, film, surface, q_steady = coarse_flight
+    if adhesion != scene.models.adhesion:
+        scene = dataclasses.replace(scene, models=dataclasses.replace(scene.models, adhesion=adhesion))
+        surface = SurfaceModel(scene, film.grid)
     q = q_steady - [drop_by, 0.0, 0.0]
     d = film.spacing(q)
     s = np.full(d.shape, sigma)

@@ -38,6 +38,10 @@ def fly_dataset(steady: AbsSteady, scene: AbsScene) -> xr.Dataset:
     data["iterations"] = var(steady.iterations, (), "1", "attitude Newton iterations")
     data["reynolds_solves"] = var(steady.reynolds_solves, (), "1", "sparse Reynolds solves")
     data["force_residual"] = var(steady.force_residual, (), "1", "force balance residual / preload")
+    data["touchdown_adhesion_force"] = var(steady.touchdown_adhesion, (), "N",
+                                           "fold estimate: adhesion force with the face lowered at the steady pitch "
+                                           "and roll until its lowest point is at eps")  # fmt: skip
+    data["touchdown_lowering"] = var(steady.touchdown_lowering, (), "m", "lowering of the face for the fold estimate")
     data["wall_time"] = var(steady.wall_time, (), "s", "wall time of the steady solve")
     coords = {
         "x": ("x", steady.x, {"units": "m", "long_name": "position from the leading edge"}),

@@ -11,6 +11,7 @@ import numpy as np
 from solver.abs.face import AbsGrid
 from solver.abs.params import AbsScene
 from solver.kernels import surface as ksurf
+from solver.surface import ADHESION_LAWS, summit_coefficient
 
 log = logging.getLogger(__name__)
 
@@ -55,6 +56,8 @@ class SurfaceModel:
         self.e_composite = e_comp
         self.gw_coef = 4.0 / 3.0 * c.summit_density * e_comp * math.sqrt(c.summit_radius)
         self.adh_coef = 8.0 * c.delta_gamma / (3.0 * self.eps)
+        self.adhesion_law = ADHESION_LAWS[scene.models.adhesion]
+        self.summit_coef = summit_coefficient(c.summit_density, c.summit_radius)
         self.mu = c.mu
         psi = math.radians(scene.disk.skew)
         t = scene.slider.thickness
@@ -69,9 +72,10 @@ class SurfaceModel:
         self.near = np.empty(self.area.size, dtype=np.int64)  # work array of :meth:`candidates`
         self.xc, self.yc = grid.x, grid.y
         self.grid = grid
-        #: The Greenwood-Williamson law's constants as the kernels take them
+        #: The Greenwood-Williamson law's and the adhesion law's constants as the kernels take them
         #: (:func:`solver.kernels.surface.generalized_forces`).
-        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.mu, self.friction_arm, self.reach, REACH_SIGMAS)
+        self.kernel_law = (self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, self.mu,
+                           self.friction_arm, self.reach, REACH_SIGMAS)  # fmt: skip
 
     def forces(self, d: np.ndarray, sigma: np.ndarray) -> SurfaceForces:
         """Surface forces for node spacings d (nx, ny) [m] and unresolved RMS sigma (nx, ny) [m]."""
@@ -80,6 +84,31 @@ class SurfaceModel:
         d_flat, s_flat = d.ravel(), sigma.ravel()
         near = np.flatnonzero(d_flat < self.reach + REACH_SIGMAS * s_flat)
         return self._on(near, d_flat[near], s_flat[near])
+
+    def touchdown_adhesion(self, d: np.ndarray, sigma: np.ndarray) -> tuple[float, float]:
+        """The fold estimate: adhesion force [N] (<= 0) of the whole face lowered to touch, and the lowering [m].
+
+        The face is moved towards the disk along z only (pitch and roll kept)
+        until its lowest contact patch sits at d = eps from the disk's mean
+        plane, and the scene's adhesion law is summed over every patch (no
+        reach: the whole face), with roughness ``sigma`` (nx, ny) [m].  Against
+        the preload it says, before any run, whether adhesion can out-pull the
+        suspension: near one preload or above expect no flying equilibrium
+        (:func:`solver.abs.steady.fly_abs` then reports the fold).  It is an
+        estimate, not the fold: on chen_bogy2007 (121 x 101) the branch folds
+        where it reads 0.77 preloads with the flat law and 1.42 with
+        asperity_dmt (the film's stiffness, not the preload, holds the pad).
+        """
+        if self.law == "none":
+            return 0.0, 0.0
+        d_flat = d.ravel()
+        lowering = float(d_flat.min()) - self.eps
+        out = np.empty((4, d_flat.size))
+        ksurf.surface_pressures(
+            np.ascontiguousarray(d_flat - lowering), np.ascontiguousarray(sigma.ravel()), self.eps, self.gw_coef,
+            self.adh_coef, self.adhesion_law, self.summit_coef, out,
+        )  # fmt: skip
+        return float(out[2] @ self.area), lowering
 
     def candidates(self, disk: np.ndarray, sigma: np.ndarray, q: np.ndarray, margin: float) -> Candidates:
         """The cells within reach (plus ``margin``) at attitude q over the disk heights ``disk`` (nx, ny) [m].
@@ -109,7 +138,7 @@ class SurfaceModel:
             return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
         dn, sn = np.ascontiguousarray(dn), np.ascontiguousarray(sn)
         out = np.empty((4, near.size))
-        ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, out)
+        ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, out)
         pc, dpc, pa, dpa = out
         if self.law == "elastic":
             pc, dpc_matrix = self._elastic_pressure(near, dn)

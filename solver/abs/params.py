@@ -247,6 +247,10 @@ class AbsDisk(Section):
 
 
 SURFACE_CONTACT_LAWS = ("greenwood_williamson", "elastic", "none")
+#: Adhesion laws (:data:`solver.surface.ADHESION_LAWS`, whose names a test checks against these; named here so
+#: that reading parameters does not load the kernels): "flat", the Lennard-Jones flat-flat law on the nominal
+#: area; "asperity_dmt", a DMT pull on every Greenwood-Williamson summit (2 pi R dgamma at contact).
+ADHESION_LAWS = ("flat", "asperity_dmt")
 
 
 @dataclass(frozen=True)
@@ -273,8 +277,8 @@ class SurfaceContact(Section):
     candidate_gap: float = quantity(
         20.0e-9,
         "m",
-        "cells closer than this (plus eps and 6 RMS) to the disk feel contact and adhesion (the adhesion beyond "
-        "20 nm is below 3e-6 of its peak)",
+        "cells closer than this (plus eps and 6 RMS) to the disk feel contact and adhesion (beyond 20 nm the flat "
+        "law's adhesion is below 3e-6 of its peak, the asperity_dmt law's, falling like d^-2, below 3e-4)",
         lo=0.0,
         lo_open=True,
     )
@@ -297,6 +301,13 @@ class AbsModels(Section):
     air_bearing: str = quantity("reynolds", "", "air-bearing model", choices=ABS_AIR_BEARINGS)
     slip: str = quantity("fukui_kaneko", "", "slip law", choices=tuple(SLIP_LAWS))
     contact: str = quantity("greenwood_williamson", "", "contact law", choices=SURFACE_CONTACT_LAWS)
+    adhesion: str = quantity(
+        "flat",
+        "",
+        "adhesion law: 'flat' (Lennard-Jones flat-flat law on the nominal area) or 'asperity_dmt' (a DMT pull on "
+        "each summit of the contact law, bounded at 2 pi R dgamma per summit at contact)",
+        choices=ADHESION_LAWS,
+    )
     slip_switch: float = quantity(
         0.3e-9, "m", "films thinner than this use the bounded second-order slip law (fukui_kaneko)", lo=0.0
     )

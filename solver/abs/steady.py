@@ -39,6 +39,10 @@ class AbsSteady:
     force_residual: float
     wall_time: float
     note: str = ""  # how the start was obtained when the scene itself has no steady flight
+    #: The fold estimate (:meth:`SurfaceModel.touchdown_adhesion`): adhesion force [N] with the face lowered at this
+    #: pitch and roll until its lowest patch is at eps, and that lowering [m].
+    touchdown_adhesion: float = float("nan")
+    touchdown_lowering: float = float("nan")
 
 
 def element_row(scene: AbsScene) -> np.ndarray:
@@ -181,6 +185,7 @@ def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None)
     h = film.spacing(q)
     hp = np.where(pad, h, np.inf)
     k = np.unravel_index(np.argmin(hp), h.shape)
+    touchdown, lowering = surface.touchdown_adhesion(h, track_sigma)
     return AbsSteady(
         q=q,
         element_spacing=element_spacing(scene, q),
@@ -197,6 +202,8 @@ def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None)
         reynolds_solves=film.reynolds_solves,
         force_residual=float(np.max(np.abs(r))),
         wall_time=time.perf_counter() - wall0,
+        touchdown_adhesion=touchdown,
+        touchdown_lowering=lowering,
     )
 
 
@@ -231,9 +238,9 @@ def _with_adhesion(scene: AbsScene, delta_gamma: float) -> AbsScene:
 class _HeightBalances:
     """The three balances at a prescribed element height, with delta_gamma as the third unknown.
 
-    The surface forces are affine in delta_gamma (the adhesion pressure is
-    adh_coef = 8 delta_gamma / (3 eps) times a function of the spacing;
-    contact and friction do not depend on it), so
+    The surface forces are affine in delta_gamma (the adhesion pressure of
+    either law is delta_gamma times a function of the spacing; contact and
+    friction do not depend on it), so
 
         r(q, dg) = (f_film(q) + f_s(q; 0) + dg a(q) + f_static) / scale,   a = f_s(q; 1) - f_s(q; 0),
 
@@ -399,14 +406,17 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
             (ha, ua, _), (hb, ub, _) = branch[-2], branch[-1]
             uf = ua + (hf - ha) / (hb - ha) * (ub - ua)
             film.P[:] = P_first
+            touchdown, _ = SurfaceModel(scene, grid).touchdown_adhesion(film.spacing(free.q), bal.sigma)
             err = AttitudeError(
                 f"no flying equilibrium on the {grid.shape[0]} x {grid.shape[1]} grid: the fold lies at delta_gamma "
                 f"= {fold:.4g} J/m2 (the scene asks {target:g}); beyond it the pad is pulled onto the disk "
                 f"(at the fold: flying height {hf * 1e9:.3f} nm, {_attitude_text(bal.attitude(hf, uf))}; every "
-                f"point of the branch balanced to a force residual below {bal.tol:.0e} preloads; Newton at "
-                f"delta_gamma = {target:g} had failed: {first})"
+                f"point of the branch balanced to a force residual below {bal.tol:.0e} preloads; fold estimate: "
+                f"{touchdown_text(touchdown, scene.suspension.preload)} with the face lowered to touch at the pitch "
+                f"and roll of the flight without adhesion; Newton at delta_gamma = {target:g} had failed: {first})"
             )
             err.fold_delta_gamma = fold
+            err.touchdown_adhesion = touchdown
             raise err
         if h0 - 2.0 * dh < MIN_ELEMENT_HEIGHT:
             film.P[:] = P_first
@@ -417,6 +427,12 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
             )
         if bal.iterations - before <= EASY_STEP:
             dh = min(MAX_HEIGHT_STEP, STEP_GROWTH * dh)
+
+
+def touchdown_text(force: float, preload: float) -> str:
+    """The fold estimate in words: 'adhesion at touchdown -5.912 mN = 0.754 preloads'."""
+    ratio = -force / preload if preload > 0.0 else float("inf")
+    return f"adhesion at touchdown {force * 1e3:.3f} mN = {ratio:.3g} preloads"
 
 
 def _parabola_peak(*points: tuple[float, float]) -> tuple[float, float]:

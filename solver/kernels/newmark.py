@@ -11,8 +11,8 @@ and the balance of the generalized-alpha method (:mod:`solver.abs.integrate`)
 
 with the film force linear in q about the path the film was advanced along,
 f_air(q) = f_path + K_f (q - q_path), and the Greenwood-Williamson surface
-forces f_s (:func:`solver.kernels.surface.generalized_forces`).  Newton's
-method with the exact Jacobian
+forces f_s (:func:`solver.kernels.surface.generalized_forces`, with either
+adhesion law).  Newton's method with the exact Jacobian
 
     dG/da = (1 - am) M + (1 - af) (gamma h C + beta h^2 (K - df_s/dq - K_f)),
 
@@ -78,13 +78,14 @@ def _balance(
     M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
     f_path, q_path, film_K, f_old = film
     offset, sigma, b, area = cells
-    eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas = law
+    eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas = law
     for k in range(3):
         q1[k] = q[k] + h * v[k] + h * h * ((0.5 - beta) * a[k] + beta * a_trial[k])
         v1[k] = v[k] + h * ((1.0 - gamma) * a[k] + gamma * a_trial[k])
     contact, adhesion, in_reach = generalized_forces(
-        offset, sigma, b, area, q1, eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas, f_s, dfdq
-    )
+        offset, sigma, b, area, q1, eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas,
+        f_s, dfdq,
+    )  # fmt: skip
     for r in range(3):
         g = -f_static[r] - alpha_f * f_old[r]
         f_air = f_path[r]
@@ -121,10 +122,10 @@ def newton_step(
 
     state : (q_n, v_n, a_n); scheme : (M, C, K, q_ref, f_static, weights, am, af, gamma, beta);
     film : (f_path, q_path, K_f, f_old); cells : (offset, sigma, b, area) of the candidate cells;
-    law : (eps, gw_coef, adh_coef, mu, arm, reach, reach_sigmas); controls : (tol, round_off, max_iter,
-    max_backtracks, min_damping).  On return q1, v1, f_s, dfdq hold the last iterate's attitude,
-    velocities, surface force and its Jacobian.  Returns (iterations, weighted residual, converged,
-    contact force, adhesion force, cells in reach).
+    law : (eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas);
+    controls : (tol, round_off, max_iter, max_backtracks, min_damping).  On return q1, v1, f_s, dfdq
+    hold the last iterate's attitude, velocities, surface force and its Jacobian.  Returns (iterations,
+    weighted residual, converged, contact force, adhesion force, cells in reach).
     """
     M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
     f_path, q_path, film_K, f_old = film
