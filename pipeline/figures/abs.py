@@ -80,9 +80,10 @@ def plot_study(ds: xr.Dataset) -> Figure:
             y = cell[name].values * scale
             half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
             (line, *_) = ax.errorbar(x * scale_x, y, yerr=half, fmt="o-", label=label, lw=1.2, capsize=3)
+            offset = (4, 4) if k % 2 == 0 else (4, -11)  # alternate lines label above and below their points
             for xi, yi in zip(x * scale_x, y, strict=True):  # the values, readable on either scale
                 if np.isfinite(yi):
-                    ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=(4, 4), fontsize=7,
+                    ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=offset, fontsize=7,
                                 color=line.get_color())  # fmt: skip
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
@@ -95,7 +96,7 @@ def plot_study(ds: xr.Dataset) -> Figure:
         axes[1].legend(fontsize=8, frameon=False)
     failed = int(np.count_nonzero(ds["status"].values == -1))
     note = f" ({failed} failed runs)" if failed else ""
-    samples = f", mean of {n_real} realisations, 95 % intervals" if n_real > 1 else ""
+    samples = f"\nmean of {n_real} realisations, 95 % intervals" if n_real > 1 else ""
     fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{samples}{note}", fontsize=11)
     return fig
 
