@@ -164,6 +164,8 @@ class AbsStepper:
         self.film_dPdq = np.zeros((3, *film.P.shape))
         self.jacobian_age, self.jacobian_h = 0, 0.0
         self.newton_kernel = surface.law == "greenwood_williamson"
+        self.damping_ratio = scene.contact.damping_ratio
+        self.m_inv = np.linalg.inv(self.M)
         self.scheme = (self.M, self.C, self.K, self.q_ref, self.f_static, self.weights, self.alpha_m, self.alpha_f,
                        self.gamma, self.beta)  # fmt: skip
         self.controls = (self.tol, FORCE_ROUND_OFF, self.newton_max_iter, MAX_BACKTRACKS, MIN_DAMPING)
@@ -331,6 +333,13 @@ class AbsStepper:
         if not self.newton_kernel:
             return self._newton_python(h, cells, a_new, f_path, q_path, f_old)
         q1, v1, f_s, dfdq = np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
+        if self.damping_ratio > 0.0:
+            # The resolved disk's rate at the candidate cells over this step (the contact damping's reference).
+            index = cells.index
+            disk_end = self.surface.surface[index] - cells.base  # cells.base = surface - disk at t + h
+            disk_rate = (disk_end - self.zd.ravel()[index]) / h
+        else:
+            disk_rate = np.zeros(0)
         a_new = a_new.copy()
         iterations, self.residual, converged, contact, adhesion, in_reach = knewmark.newton_step(
             a_new,
@@ -340,6 +349,7 @@ class AbsStepper:
             (f_path, q_path, self.film_K, f_old),
             (cells.base, cells.sigma, cells.b, cells.area),
             self.surface.kernel_law,
+            (self.damping_ratio, self.m_inv, disk_rate),
             self.controls,
             q1,
             v1,

@@ -274,6 +274,16 @@ class SurfaceContact(Section):
     slider_poisson: float = quantity(0.23, "1", "Poisson ratio of the slider", lo=0.0, hi=0.5)
     disk_modulus: float = quantity(110.0e9, "Pa", "Young's modulus of the disk", lo=0.0, lo_open=True)
     disk_poisson: float = quantity(0.3, "1", "Poisson ratio of the disk", lo=0.0, hi=0.5)
+    damping_ratio: float = quantity(
+        0.0,
+        "1",
+        "contact damping ratio: every contact cell is a Kelvin-Voigt element with a coefficient proportional to its "
+        "Greenwood-Williamson stiffness, scaled so that a contact on one patch has this damping ratio (0: none; "
+        "measured head-disk contacts: a few percent)",
+        symbol="zeta_c",
+        lo=0.0,
+        hi=1.0,
+    )
     candidate_gap: float = quantity(
         20.0e-9,
         "m",
@@ -444,6 +454,12 @@ class AbsScene:
     kind = "abs"
 
     def __post_init__(self) -> None:
+        if self.contact.damping_ratio > 0.0 and self.models.contact != "greenwood_williamson":
+            raise ParameterError(
+                f"contact.damping_ratio = {self.contact.damping_ratio!r} is not allowed with models.contact = "
+                f"{self.models.contact!r}: the contact damping is defined on the greenwood_williamson law only "
+                "(set it to 0)"
+            )
         lengths = [f.name for f in dataclasses.fields(AbsSlider) if f.metadata.get("units") == "m"]
         for k, region in enumerate(self.abs.regions):
             if region.width_from and region.width_from not in lengths:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .surface import generalized_forces
+from .surface import contact_damping, generalized_forces
 
 
 @njit
@@ -67,18 +67,25 @@ def _balance(
     film: tuple,
     cells: tuple,
     law: tuple,
+    damping: tuple,
     q1: np.ndarray,
     v1: np.ndarray,
     f_s: np.ndarray,
     dfdq: np.ndarray,
+    c_s: np.ndarray,
     G: np.ndarray,
 ) -> tuple[float, float, int]:
-    """q(a), v(a), the surface forces and G(a) into the output arrays; returns contact, adhesion, cells in reach."""
+    """q(a), v(a), the surface forces and G(a) into the output arrays; returns contact, adhesion, cells in reach.
+
+    The contact force includes the contact damping's (zero unless ``damping`` = (zeta, M^-1, disk rates)
+    has zeta > 0); ``c_s`` receives its damping matrix.
+    """
     q, v, a = state
     M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
     f_path, q_path, film_K, f_old = film
     offset, sigma, b, area = cells
     eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas = law
+    zeta, m_inv, disk_rate = damping
     for k in range(3):
         q1[k] = q[k] + h * v[k] + h * h * ((0.5 - beta) * a[k] + beta * a_trial[k])
         v1[k] = v[k] + h * ((1.0 - gamma) * a[k] + gamma * a_trial[k])
@@ -86,6 +93,12 @@ def _balance(
         offset, sigma, b, area, q1, eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas,
         f_s, dfdq,
     )  # fmt: skip
+    if zeta > 0.0:
+        contact += contact_damping(
+            offset, sigma, b, area, q1, v1, disk_rate, eps, gw_coef, m_inv, zeta, mu, arm, f_s, dfdq, c_s
+        )
+    else:
+        c_s[:, :] = 0.0
     for r in range(3):
         g = -f_static[r] - alpha_f * f_old[r]
         f_air = f_path[r]
@@ -112,6 +125,7 @@ def newton_step(
     film: tuple,
     cells: tuple,
     law: tuple,
+    damping: tuple,
     controls: tuple,
     q1: np.ndarray,
     v1: np.ndarray,
@@ -123,6 +137,8 @@ def newton_step(
     state : (q_n, v_n, a_n); scheme : (M, C, K, q_ref, f_static, weights, am, af, gamma, beta);
     film : (f_path, q_path, K_f, f_old); cells : (offset, sigma, b, area) of the candidate cells;
     law : (eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas);
+    damping : (zeta, M^-1, disk rate at the cells) of the contact damping
+    (:func:`solver.kernels.surface.contact_damping`; zeta = 0: none);
     controls : (tol, round_off, max_iter, max_backtracks, min_damping).  On return q1, v1, f_s, dfdq
     hold the last iterate's attitude, velocities, surface force and its Jacobian.  Returns (iterations,
     weighted residual, converged, contact force, adhesion force, cells in reach).
@@ -134,8 +150,9 @@ def newton_step(
     trial = np.empty(3)
     tq, tv, tf, tG = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     tJ = np.empty((3, 3))
+    Cs, tC = np.empty((3, 3)), np.empty((3, 3))
     Jn = np.empty((3, 3))
-    contact, adhesion, in_reach = _balance(a_new, h, state, scheme, film, cells, law, q1, v1, f_s, dfdq, G)
+    contact, adhesion, in_reach = _balance(a_new, h, state, scheme, film, cells, law, damping, q1, v1, f_s, dfdq, Cs, G)
     norm = _weighted_max(G, weights)
     scale = _weighted_max(f_path, weights)
     iterations = 0
@@ -146,7 +163,7 @@ def newton_step(
         for r in range(3):
             for c in range(3):
                 Jn[r, c] = (1.0 - alpha_m) * M[r, c] + (1.0 - alpha_f) * (
-                    gamma * h * C[r, c] + beta * h * h * (K[r, c] - dfdq[r, c] - film_K[r, c])
+                    gamma * h * (C[r, c] + Cs[r, c]) + beta * h * h * (K[r, c] - dfdq[r, c] - film_K[r, c])
                 )
         step = solve3(Jn, G)
         lam = 1.0
@@ -155,7 +172,7 @@ def newton_step(
         for _ in range(max_backtracks):
             for k in range(3):
                 trial[k] = a_new[k] - lam * step[k]
-            totals = _balance(trial, h, state, scheme, film, cells, law, tq, tv, tf, tJ, tG)
+            totals = _balance(trial, h, state, scheme, film, cells, law, damping, tq, tv, tf, tJ, tC, tG)
             trial_norm = _weighted_max(tG, weights)
             if trial_norm < norm or lam < min_damping:
                 break
@@ -165,6 +182,7 @@ def newton_step(
         v1[:] = tv
         f_s[:] = tf
         dfdq[:, :] = tJ
+        Cs[:, :] = tC
         G[:] = tG
         norm = trial_norm
         contact, adhesion, in_reach = totals
