@@ -82,9 +82,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return 0
 
 
-# Cost model for --dry-run when the ledger has no finished run of the study yet: film-step cost
-# per node and step measured by `hdi bench` on this machine (0.25-0.38 ms per step at 2 x 201 x 21 nodes).
-SECONDS_PER_NODE_STEP = 4.0e-8
+# Cost model for --dry-run when the ledger has no finished run of the study yet: cost per film node and step
+# on this machine, by scene kind.  rails: measured by `hdi bench` (0.25-0.38 ms per step at 2 x 201 x 21 nodes);
+# abs: the default chen_bogy2007 run (2.18 ms per step at 121 x 101 nodes, dt 0.05 us; a stuck pad's Newton
+# iterations cost 2-3 times that).
+SECONDS_PER_NODE_STEP = {"rails": 4.0e-8, "abs": 1.8e-7}
 
 
 def _estimate(study, ledger, todo: int, workers: int) -> str:
@@ -102,10 +104,12 @@ def _estimate(study, ledger, todo: int, workers: int) -> str:
     if walls:
         per_run, basis = statistics.median(walls), f"median of {len(walls)} finished runs in the ledger"
     else:
-        num = study.case((0,) * len(study.axes)).scene.numerics
-        nodes = 2 * num.nx * num.ny
-        per_run = num.t_end / num.dt * nodes * SECONDS_PER_NODE_STEP
-        basis = f"model: {nodes} nodes x {num.t_end / num.dt:.0f} steps x {SECONDS_PER_NODE_STEP:g} s"
+        scene = study.case((0,) * len(study.axes)).scene
+        num = scene.numerics
+        nodes = (2 if scene.kind == "rails" else 1) * num.nx * num.ny  # rails: two films
+        cost = SECONDS_PER_NODE_STEP[scene.kind]
+        per_run = num.t_end / num.dt * nodes * cost
+        basis = f"model: {nodes} nodes x {num.t_end / num.dt:.0f} steps x {cost:g} s"
     total = todo * per_run
     return (
         f"~{per_run:.2f} s per run ({basis}); {todo} runs ~ {total:.0f} core-s, "
