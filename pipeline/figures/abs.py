@@ -75,7 +75,7 @@ def plot_study(ds: xr.Dataset) -> Figure:
     stacked = ds.stack(line=rest) if rest else ds.expand_dims(line=[0])
     for k in range(stacked.sizes["line"]):
         cell = stacked.isel(line=k)
-        label = ", ".join(f"{d} = {float(cell[d]):g} {ds[d].attrs.get('units', '')}" for d in rest) or None
+        label = ", ".join(f"{d} = {float(cell[d]) * _scale(ds[d])[0]:g} {_scale(ds[d])[1]}" for d in rest) or None
         for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
             y = cell[name].values * scale
             half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
@@ -88,8 +88,7 @@ def plot_study(ds: xr.Dataset) -> Figure:
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
     for ax in axes:
-        name = ds[first].attrs.get("long_name", first).split(" (")[0]  # the long name without its remarks
-        ax.set_xlabel(f"{name} [{xunit}]")
+        ax.set_xlabel(f"{_short_name(ds[first], first)} [{xunit}]")
         ax.grid(alpha=0.3)
         ax.set_ylim(bottom=0.0)
     if rest:
@@ -108,7 +107,15 @@ def _scale(coord: xr.DataArray) -> tuple[float, str]:
         return (1e6, "um") if span >= 1e-6 else (1e9, "nm")
     if units == "N":
         return 1.0 / 9.80665e-3, "gram-force"
+    if units == "s":
+        span = float(np.nanmax(np.abs(coord.values))) if coord.size else 0.0
+        return (1e6, "us") if span < 1e-3 else (1e3, "ms")
     return 1.0, units or "1"
+
+
+def _short_name(coord: xr.DataArray, default: str) -> str:
+    """A coordinate's long name without its remarks (after " (" or ": "), for an axis label."""
+    return coord.attrs.get("long_name", default).split(" (")[0].split(": ")[0]
 
 
 def plot_fly(ds: xr.Dataset) -> Figure:
@@ -173,7 +180,7 @@ def plot_regime_map(ds: xr.Dataset) -> Figure:
               loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9,
               title="dominant regime\n(number: its share)", title_fontsize=9)  # fmt: skip
     for setter, dim, unit in ((ax.set_xlabel, xdim, xunit), (ax.set_ylabel, ydim, yunit)):
-        setter(f"{ds[dim].attrs.get('long_name', dim).split(' (')[0]} [{unit}]")
+        setter(f"{_short_name(ds[dim], dim)} [{unit}]")
     ax.set_xticks(x)
     ax.set_yticks(y)
     n_real = ds.sizes.get("realization", 1)
@@ -197,8 +204,6 @@ def plot_statistics(ds: xr.Dataset) -> Figure:
     low, high = (float(v) for v in ds["se_slope_range"].values)
     fig, axes = plt.subplots(len(names), 3, figsize=(13.0, 3.2 * len(names)), constrained_layout=True, squeeze=False)
     sd, dunit = _scale(ds[dim])
-    if ds[dim].attrs.get("units") == "s":
-        sd, dunit = 1e6, "us"
     values = ds[dim].values * sd
     n = ds["samples"].values
     others = [d for d in ds[f"{names[0]}_mean"].dims if d != dim]

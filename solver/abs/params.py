@@ -277,9 +277,9 @@ class SurfaceContact(Section):
     damping_ratio: float = quantity(
         0.0,
         "1",
-        "contact damping ratio: every contact cell is a Kelvin-Voigt element with a coefficient proportional to its "
-        "Greenwood-Williamson stiffness, scaled so that a contact on one patch has this damping ratio (0: none; "
-        "measured head-disk contacts: a few percent)",
+        "contact damping ratio (of a contact on one patch: every contact cell is a Kelvin-Voigt element with a "
+        "coefficient proportional to its Greenwood-Williamson stiffness; 0: none; measured head-disk contacts: a few "
+        "percent)",
         symbol="zeta_c",
         lo=0.0,
         hi=1.0,
