@@ -71,15 +71,38 @@ def test_one_patch_has_the_damping_ratio_of_its_effective_mass():
     assert f == pytest.approx(expected * b[:, 0], rel=1e-12)
     normal, f, _ = damping(offset, sigma, b, area, v, [b[:, 0] @ v], 0.05)  # moving with the disk: no damping
     assert abs(normal) < 1e-12 * abs(expected) and np.all(f == 0.0)
+    # separating fast, the damping would out-pull the elastic pressure: the contact force is zero, not tensile
+    pc = ksurf.contact_pressure(offset[0], 0.0, EPS, GW_COEF)[0] * area[0]
+    separating = np.array([0.5, 0.0, 0.0])
+    assert 2.0 * 0.05 * math.sqrt(k * m_star) * (b[:, 0] @ separating) > pc
+    normal, f, C = damping(offset, sigma, b, area, separating, [0.0], 0.05)
+    assert normal == pytest.approx(-pc, rel=1e-12) and f == pytest.approx(-pc * b[:, 0], rel=1e-12)
+    assert np.all(C == 0.0)
+
+
+def clamped_cells(offset, b, area, v, rate, zeta, q=(0.0, 0.0, 0.0)):
+    """How many of the (smooth) cells would pull, p_c + p_d < 0, computed here from the law's definition."""
+    d = offset + np.asarray(q) @ b
+    pc, dpc = np.vectorize(lambda x: ksurf.contact_pressure(x, 0.0, EPS, GW_COEF))(d)
+    g = np.einsum("in,ij,jn->n", b, np.linalg.inv(mass()), b)
+    c = 2.0 * zeta * (-dpc) / math.sqrt(np.sum(-dpc * area * g))
+    return int(np.count_nonzero(pc - c * (v @ b - rate) < 0.0))
+
+
+#: Velocities at which all twelve cells approach the disk, and at which some separate fast enough to be clamped.
+VELOCITIES = {"approaching": np.array([-1e-3, 0.2, 0.1]), "mixed": np.array([0.05, 20.0, 0.1])}
 
 
 @pytest.mark.jitless
 @pytest.mark.parametrize("mu", [0.0, 0.4])
-def test_damping_matrix_is_minus_the_velocity_derivative(mu):
+@pytest.mark.parametrize("motion", list(VELOCITIES))
+def test_damping_matrix_is_minus_the_velocity_derivative(mu, motion):
     """The matrix returned with the force is -df/dv, with the friction of the damping force's normal part."""
     offset, sigma, b, area = cells(12, 1)
     rate = np.random.default_rng(2).uniform(-1e-3, 1e-3, 12)
-    v = np.array([-1e-3, 0.2, 0.1])
+    v = VELOCITIES[motion]
+    clamped = clamped_cells(offset, b, area, v, rate, 0.07)
+    assert clamped == 0 if motion == "approaching" else 0 < clamped < 12
     _, f0, C = damping(offset, sigma, b, area, v, rate, 0.07, mu)
     for k in range(3):
         dv = np.zeros(3)
@@ -91,12 +114,16 @@ def test_damping_matrix_is_minus_the_velocity_derivative(mu):
 
 @pytest.mark.jitless
 @pytest.mark.parametrize("sigma", [0.0, 0.3e-9], ids=["smooth", "rough"])
-def test_attitude_derivative_matches_central_differences(sigma):
-    """df/dq (the coefficients' change with the spacing, omega_c's included) against central differences."""
+@pytest.mark.parametrize("motion", list(VELOCITIES))
+def test_attitude_derivative_matches_central_differences(sigma, motion):
+    """df/dq (the coefficients' change with the spacing, omega_c's included; clamped cells) against differences."""
     offset, _, b, area = cells(12, 4)
     rough = np.full(12, sigma)
     rate = np.random.default_rng(5).uniform(-1e-3, 1e-3, 12)
-    v, q = np.array([-1e-3, 0.2, 0.1]), np.array([0.05e-9, 0.0, 0.0])
+    v, q = VELOCITIES[motion], np.array([0.05e-9, 0.0, 0.0])
+    if sigma == 0.0:
+        clamped = clamped_cells(offset, b, area, v, rate, 0.07, q)
+        assert clamped == 0 if motion == "approaching" else 0 < clamped < 12
     _, _, _, dfdq = damping(offset, rough, b, area, v, rate, 0.07, 0.4, q=q, jac=True)
     for k, step in enumerate((1e-13, 1e-10, 1e-10)):  # [m], [rad]: the spacing moves by at most 0.04 pm
         dq = np.zeros(3)
@@ -126,12 +153,13 @@ def test_modal_damping_ratios_of_a_spread_contact():
 
 
 def damped_hertz_rebound(m: float, stiffness: float, zeta_z: float, v0: float) -> float:
-    """Rebound speed of m x'' = -K delta^(3/2) - 2 zeta_z sqrt(k m) x', k = 3/2 K delta^(1/2), from x' = -v0."""
+    """Rebound speed of m x'' = max(K delta^(3/2) - 2 zeta_z sqrt(k m) x', 0), k = 3/2 K delta^(1/2), from x' = -v0."""
 
     def rhs(_, y):
         delta = max(-y[0], 0.0)
         k = 1.5 * stiffness * math.sqrt(delta)
-        return [y[1], (stiffness * delta**1.5 - 2.0 * zeta_z * math.sqrt(k * m) * y[1]) / m if delta > 0 else 0.0]
+        force = max(stiffness * delta**1.5 - 2.0 * zeta_z * math.sqrt(k * m) * y[1], 0.0)  # a contact cannot pull
+        return [y[1], force / m]
 
     def leaves(_, y):
         return y[0]
@@ -146,10 +174,11 @@ def test_flat_landing_is_the_damped_hertz_impact():
 
     All patches share the spacing, so the face is one Hertzian spring K delta^(3/2) with damping
     sum_i A_i c_i = 2 zeta K_c / omega_c, omega_c^2 = sum_i A_i k b_i^T M^-1 b_i: a 1-DOF damping ratio
-    zeta_z = zeta sqrt(K_c / m) / omega_c (0.059 here).  The ODE's restitution, 0.8149, does not depend on
-    the landing speed (1 and 3 mm/s: equal to 1e-9): c grows like delta^(1/4) and the impact has no
-    scale.  Measured, trapezoidal rule, rebound speed against the ODE's: +3.9e-4 and +8.6e-4 at dt 0.05 us,
-    -4.3e-5 and +1.1e-5 at 0.0125 us.
+    zeta_z = zeta sqrt(K_c / m) / omega_c (0.059 here); the contact force is never tensile (the damping
+    would pull at the end of the rebound, where it outgrows the elastic force).  The ODE's restitution does
+    not depend on the landing speed (1 and 3 mm/s: equal to 1e-8): c grows like delta^(1/4) and the impact has
+    no scale.  Measured, trapezoidal rule, rebound speed against the ODE's: +7.5e-4 and +3.0e-4 at dt 0.05 us,
+    -1.0e-4 and -8.8e-5 at 0.0125 us (the clamp's kink, met between samples, keeps it from second order).
     """
     zeta = 0.1
     restitution = []
@@ -171,7 +200,7 @@ def test_flat_landing_is_the_damped_hertz_impact():
             assert result.status == 0, result.message
             assert result.series["contact_force"].max() > 0.0 and result.series["contact_force"][-1] == 0.0
             errors.append(result.v[-1, 0] / expected - 1.0)
-        assert abs(errors[0]) < 1e-3 and abs(errors[1]) < min(1e-4, abs(errors[0]) / 4.0), errors
+        assert abs(errors[0]) < 1e-3 and abs(errors[1]) < min(2e-4, abs(errors[0])), errors
         restitution.append(expected / v0)
     assert restitution[0] == pytest.approx(restitution[1], rel=1e-8)
     assert 0.75 < restitution[0] < 0.9  # and it damps: a linear spring with zeta_z 0.059 would give 0.83

@@ -497,15 +497,18 @@ def contact_damping(
     zeta exactly, c = 2 zeta sqrt(k m*); a contact spread over the face is damped in proportion to its
     stiffness, mode j with zeta omega_j / omega_c, the stiffest at least zeta / sqrt(3).  The damping acts
     on the spacing rate relative to the resolved disk surface, r_i = b_i . v - ``disk_rate``_i, as the
-    pressure -c_i r_i, part of the normal force on which Coulomb friction acts (mu, lever ``arm`` as in
-    :func:`generalized_forces`; l_i = b_i + mu arm):
+    pressure p_d = -c_i r_i, part of the normal force on which Coulomb friction acts (mu, lever ``arm`` as
+    in :func:`generalized_forces`; l_i = b_i + mu arm).  A contact cannot pull: where a separating cell's
+    p_c + p_d would be negative, p_d = -p_c (the cell's contact pressure is zero; adhesion is its own law).
+    With F the free cells' and Z the clamped ones,
 
-        F_d = -sum_i A_i c_i r_i,   f_d = -sum_i A_i c_i r_i l_i,
-        damping = -df_d/dv = sum_i A_i c_i l_i b_i^T,
-        df_d/dq = -(2 zeta / omega_c) sum_i A_i k_i' r_i l_i b_i^T - f_d u^T / (2 omega_c^2),
+        F_d = -sum_F A_i c_i r_i - sum_Z A_i p_c,i,   f_d = -sum_F A_i c_i r_i l_i - sum_Z A_i p_c,i l_i,
+        damping = -df_d/dv = sum_F A_i c_i l_i b_i^T,
+        df_d/dq = -(2 zeta / omega_c) sum_F A_i k_i' r_i l_i b_i^T - f_F u^T / (2 omega_c^2)
+                  - sum_Z A_i p_c,i' l_i b_i^T,
 
-    with k_i' = dk_i/dd (:func:`contact_curvature`) and u = d omega_c^2 / dq = sum_i A_i k_i' g_i b_i.
-    No contact (omega_c = 0): no force, a zero matrix.
+    with f_F the free cells' part of f_d, k_i' = dk_i/dd (:func:`contact_curvature`) and
+    u = d omega_c^2 / dq = sum_i A_i k_i' g_i b_i.  No contact (omega_c = 0): no force, a zero matrix.
     """
     for r in range(3):
         for c in range(3):
@@ -530,29 +533,38 @@ def contact_damping(
         return 0.0
     scale = 2.0 * zeta / math.sqrt(omega2)
     normal = 0.0
-    fd = np.zeros(3)
+    free = np.zeros(3)  # the free cells' damping force
     for i in range(offset.size):
         b0, b1, b2 = b[0, i], b[1, i], b[2, i]
         d = offset[i] + b0 * q[0] + b1 * q[1] + b2 * q[2]
-        _, dpc = contact_pressure(d, sigma[i], eps, gw_coef)
+        pc, dpc = contact_pressure(d, sigma[i], eps, gw_coef)
         if dpc == 0.0:
             continue
         w = -dpc * area[i] * scale  # A_i c_i [N s / m]
-        w_d = -contact_curvature(d, sigma[i], eps, gw_coef) * area[i] * scale  # d(A_i c_i)/dd_i, scale held
         rate = b0 * v[0] + b1 * v[1] + b2 * v[2] - disk_rate[i]
         fn = -w * rate
+        if pc * area[i] + fn < 0.0:  # a separating cell would pull: its contact force is zero
+            fn = -pc * area[i]
+            normal += fn
+            for r in range(3):
+                lever = b[r, i] + mu * arm[r]
+                f[r] += fn * lever
+                for c in range(3):
+                    dfdq[r, c] -= dpc * area[i] * lever * b[c, i]
+            continue
+        w_d = -contact_curvature(d, sigma[i], eps, gw_coef) * area[i] * scale  # d(A_i c_i)/dd_i, scale held
         normal += fn
         for r in range(3):
             lever = b[r, i] + mu * arm[r]
-            fd[r] += fn * lever
+            free[r] += fn * lever
             for c in range(3):
                 damping[r, c] += w * lever * b[c, i]
                 dfdq[r, c] -= w_d * rate * lever * b[c, i]
     u = (u0, u1, u2)
     for r in range(3):
-        f[r] += fd[r]
+        f[r] += free[r]
         for c in range(3):
-            dfdq[r, c] -= fd[r] * u[c] / (2.0 * omega2)
+            dfdq[r, c] -= free[r] * u[c] / (2.0 * omega2)
     return normal
 
 
