@@ -515,17 +515,20 @@ def contact_damping(
             damping[r, c] = 0.0
     omega2 = 0.0
     u0 = u1 = u2 = 0.0
-    for i in range(offset.size):
+    n = offset.size
+    pcs, dpcs, curvatures = np.zeros(n), np.zeros(n), np.zeros(n)  # p_c, dp_c/dd, d^2p_c/dd^2 of every cell
+    for i in range(n):
         b0, b1, b2 = b[0, i], b[1, i], b[2, i]
         d = offset[i] + b0 * q[0] + b1 * q[1] + b2 * q[2]
-        _, dpc = contact_pressure(d, sigma[i], eps, gw_coef)
-        if dpc == 0.0:
+        pcs[i], dpcs[i] = contact_pressure(d, sigma[i], eps, gw_coef)
+        if dpcs[i] == 0.0:
             continue
+        curvatures[i] = contact_curvature(d, sigma[i], eps, gw_coef)
         g = 0.0
         for r in range(3):
             g += b[r, i] * (m_inv[r, 0] * b0 + m_inv[r, 1] * b1 + m_inv[r, 2] * b2)
-        omega2 += -dpc * area[i] * g
-        kg = -contact_curvature(d, sigma[i], eps, gw_coef) * area[i] * g
+        omega2 += -dpcs[i] * area[i] * g
+        kg = -curvatures[i] * area[i] * g
         u0 += kg * b0
         u1 += kg * b1
         u2 += kg * b2
@@ -534,12 +537,11 @@ def contact_damping(
     scale = 2.0 * zeta / math.sqrt(omega2)
     normal = 0.0
     free = np.zeros(3)  # the free cells' damping force
-    for i in range(offset.size):
-        b0, b1, b2 = b[0, i], b[1, i], b[2, i]
-        d = offset[i] + b0 * q[0] + b1 * q[1] + b2 * q[2]
-        pc, dpc = contact_pressure(d, sigma[i], eps, gw_coef)
+    for i in range(n):
+        pc, dpc = pcs[i], dpcs[i]
         if dpc == 0.0:
             continue
+        b0, b1, b2 = b[0, i], b[1, i], b[2, i]
         w = -dpc * area[i] * scale  # A_i c_i [N s / m]
         rate = b0 * v[0] + b1 * v[1] + b2 * v[2] - disk_rate[i]
         fn = -w * rate
@@ -552,7 +554,7 @@ def contact_damping(
                 for c in range(3):
                     dfdq[r, c] -= dpc * area[i] * lever * b[c, i]
             continue
-        w_d = -contact_curvature(d, sigma[i], eps, gw_coef) * area[i] * scale  # d(A_i c_i)/dd_i, scale held
+        w_d = -curvatures[i] * area[i] * scale  # d(A_i c_i)/dd_i, scale held
         normal += fn
         for r in range(3):
             lever = b[r, i] + mu * arm[r]
