@@ -211,6 +211,15 @@ def test_failing_run_is_recorded_with_status_and_message_and_the_study_completes
     assert (again.computed, again.reused) == (1, 1)
 
 
+def test_a_study_run_with_overrides_says_so_in_its_title(tmp_path):
+    """--set changes the study's runs, so its title (figures, netCDF) names the overrides; the file's stays as is."""
+    path = write_study(tmp_path, MU_ALPHA)
+    assert load_study(path).title == "test study small"
+    study = load_study(path, ["numerics.dt=0.2e-6"])
+    assert study.title == "test study small [--set numerics.dt=0.2e-6]"
+    assert study.base["numerics"]["dt"] == 0.2e-6
+
+
 def test_dataset_written_and_read_back_has_cf_attributes(tmp_path):
     study = load_study(write_study(tmp_path, MU_ALPHA, extra=BOUNDARY))
     path = tmp_path / "cf.nc"

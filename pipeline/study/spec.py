@@ -346,7 +346,8 @@ def load_study(
 
     study = Study(
         name=name,
-        title=head.get("title", name),
+        # a study run with --set is not the study its file describes: its title says so (figures, netCDF)
+        title=head.get("title", name) + (f" [--set {' '.join(cli)}]" if cli else ""),
         path=path.resolve(),
         text=path.read_text(),
         scene_path=scene_path,
