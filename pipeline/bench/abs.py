@@ -5,15 +5,17 @@ survive this machine's noise:
 
 1. Settings.  The default 1-ms run (0.2 nm RMS track, adhesion, friction) with each film coupling and time step of
    ``SETTINGS``, timed here: the median over ``repeats`` runs on one core (the steady flight, solved once, is left
-   out).  Today's solver, a temporary ``git worktree`` of ``--baseline-ref``, times the same run in a subprocess,
-   one run per round between the rounds of the settings; each setting's cost is reported per step, per simulated
-   millisecond and as a ratio to that baseline.  Without git or the ref the ratio is skipped, and the bench says why.
-2. Accuracy over track realisations.  Every setting and a fine reference (``REFERENCE``: today's two-pass scheme at
-   dt / 2) run the 1-ms default on ``seeds`` tracks (disk.seed = 1 .. n).  A seed is the same track at any dt and
-   setting, so the runs pair: the mean and 95 % CI (Student t) of the bouncing 3-sigma, mean contact force and mean
-   flying height of each setting, and of its paired differences with the reference; a setting agrees with the
-   reference on a statistic when the CI of the differences contains 0.
-3. Grids and time steps (``CASES``), timed the same way, and their errors.  The rough track is split differently on
+   out).  The solver of the issue's day (``--baseline-ref``, a temporary ``git worktree``) times its own default
+   run (its own scene file and time step, 0.2 us at c3337da) in a subprocess, one run per round between the rounds
+   of the settings; each setting's cost is reported per step, per simulated millisecond and as a ratio to that
+   baseline per simulated millisecond.  Without git or the ref the ratio is skipped, and the bench says why.
+2. Accuracy over track realisations.  Every setting and a fine reference (``REFERENCE``: the default at dt / 2,
+   the reference of ``studies/statistics.toml``) run the 1-ms default on ``seeds`` tracks (disk.seed = 1 .. n).
+   A seed is the same track at any dt and setting, so the runs pair: the mean and 95 % CI (Student t) of the
+   bouncing 3-sigma, mean contact force and mean flying height of each setting, and of its paired differences
+   with the reference and with the default; a setting agrees with the reference on a statistic when the CI of
+   the differences contains 0.
+3. Grids and time steps (``CASES``), one run each, and their errors.  The rough track is split differently on
    every grid (each cell's resolved mean and unresolved RMS), so its 3-sigma is not a numerical quantity that
    converges; the deterministic error run is a smooth disk and a 5 mm/s drop from steady flight, 200 us, compared
    with the reference case sample by sample (max |FH(t) - FH_ref(t)|), plus the steady flying height.
@@ -44,42 +46,43 @@ from solver.abs.steady import fly_start
 
 #: (label, nx, ny, dt [s]) of the grid and time-step cases; the last one is the reference.
 CASES = (
-    ("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6),
-    ("coarse 81x67, dt 0.2 us", 81, 67, 0.2e-6),
-    ("default 121x101, dt 0.4 us", 121, 101, 0.4e-6),
-    ("default 121x101, dt 0.2 us", 121, 101, 0.2e-6),
+    ("coarse 81x67, dt 0.05 us", 81, 67, 0.05e-6),
     ("default 121x101, dt 0.1 us", 121, 101, 0.1e-6),
-    ("fine 181x151, dt 0.2 us", 181, 151, 0.2e-6),
-    ("reference 241x201, dt 0.1 us", 241, 201, 0.1e-6),
+    ("default 121x101, dt 0.05 us", 121, 101, 0.05e-6),
+    ("default 121x101, dt 0.025 us", 121, 101, 0.025e-6),
+    ("fine 181x151, dt 0.05 us", 181, 151, 0.05e-6),
+    ("reference 241x201, dt 0.025 us", 241, 201, 0.025e-6),
 )
-QUICK = (("coarse 81x67, dt 0.4 us", 81, 67, 0.4e-6), ("reference 81x67, dt 0.2 us", 81, 67, 0.2e-6))
+QUICK = (("coarse 81x67, dt 0.1 us", 81, 67, 0.1e-6), ("reference 81x67, dt 0.05 us", 81, 67, 0.05e-6))
 
 #: (name, description, overrides, dt factor) of the compared settings, on the scene's grid and dt x factor.
 SETTINGS = (
-    ("two_pass", "today's scheme: two film solves per step", {"numerics.film_coupling": "two_pass"}, 1.0),
-    ("linearized", "one film solve per step, linearized correction", {"numerics.film_coupling": "linearized"}, 1.0),
-    ("linearized dt/2", "linearized at half the time step", {"numerics.film_coupling": "linearized"}, 0.5),
+    (
+        "linearized",
+        "the default: one film solve per step, linearized correction",
+        {"numerics.film_coupling": "linearized"},
+        1.0,
+    ),
+    (
+        "two_pass",
+        "the scheme before November 2026: two film solves per step",
+        {"numerics.film_coupling": "two_pass"},
+        1.0,
+    ),
+    ("linearized 2 dt", "the default coupling at twice the time step", {"numerics.film_coupling": "linearized"}, 2.0),
 )
-#: Compared over the tracks but not timed: the coupling converged at the default dt (the film re-advanced along
-#: the corrected path on every step), which shows the coupling error of each setting apart from dt's.
-CONVERGED = (
-    "converged coupling",
-    "the film re-advanced along the corrected path every step",
-    {"numerics.film_coupling": "linearized", "numerics.film_repass": 0.0},
-    1.0,
-)
-#: The fine reference of the accuracy runs (not timed).
+#: The fine reference of the accuracy runs (not timed): the default at half its time step.
 REFERENCE = (
-    "two_pass dt/2",
-    "fine reference: two-pass at half the time step",
-    {"numerics.film_coupling": "two_pass"},
+    "linearized dt/2",
+    "fine reference: the default at half the time step",
+    {"numerics.film_coupling": "linearized"},
     0.5,
 )
 #: The setting the bench recommends (the scene default).
 RECOMMENDED = "linearized"
 #: Run statistics compared over the seeds, with their units.
 STATISTICS = {"bouncing_3sigma": "m", "mean_contact_force": "N", "mean_flying_height": "m"}
-#: Today's solver: the commit before the speed work.
+#: The solver of the issue's day (scene 2: 22 s per 1-ms run at dt 0.2 us, rho_inf 0), before the speed work.
 BASELINE_REF = "c3337da"
 
 #: The error run: a smooth disk (deterministic, no profile) and a 5 mm/s drop from steady flight.
@@ -121,7 +124,7 @@ def run_bench(args: argparse.Namespace) -> int:
     seeds = max(1, getattr(args, "seeds", None) or (2 if quick else 8))
     settings = time_settings(args.scene, run, repeats, getattr(args, "baseline_ref", BASELINE_REF))
     accuracy = seed_statistics(args.scene, run, seeds)
-    rows = grid_cases(args.scene, QUICK if quick else CASES, quick, repeats)
+    rows = grid_cases(args.scene, QUICK if quick else CASES, quick)
     if args.output:
         ds = bench_dataset(rows, settings, accuracy)
         print(f"wrote {write_netcdf(ds, args.output)}")
@@ -185,9 +188,11 @@ def time_settings(scene_path: str, run: dict[str, Any], repeats: int, baseline_r
 
 
 class Baseline:
-    """Today's solver in a temporary git worktree of ``ref``, timed in a subprocess (one run per call).
+    """The solver of ``ref`` in a temporary git worktree, timed in a subprocess (one run per call).
 
-    ``walls`` stays empty, and ``reason`` says why, when git, the ref or the run is unavailable.
+    It runs its own copy of the scene file (the ref's defaults, and no key it does not know) when the scene is
+    part of this project and the ref has it, else the given file.  ``walls`` stays empty, and ``reason`` says
+    why, when git, the ref or the run is unavailable.
     """
 
     def __init__(self, ref: str, scene_path: str, run: dict[str, Any]) -> None:
@@ -208,6 +213,12 @@ class Baseline:
             self.reason = f"git worktree add {ref} failed: {done.stderr.strip().splitlines()[-1:]}"
             return
         self.tree = tree
+        try:
+            own = tree / Path(self.scene_path).relative_to(PROJECT_ROOT.resolve())
+        except ValueError:
+            own = None
+        if own is not None and own.exists():
+            self.scene_path = str(own)
         self.commit = subprocess.run(
             [git, "rev-parse", "HEAD"], cwd=tree, capture_output=True, text=True
         ).stdout.strip()
@@ -229,7 +240,8 @@ class Baseline:
 
     def describe(self) -> str:
         if self.walls:
-            return f"{self.ref} ({self.commit[:10]}) in a git worktree, timed in a subprocess"
+            return (f"{self.ref} ({self.commit[:10]}) in a git worktree, timed in a subprocess, its own default run "
+                    f"({self.steps} steps)")  # fmt: skip
         return f"skipped: {self.reason}"
 
     def close(self) -> None:
@@ -265,7 +277,7 @@ def mean_ci(values: np.ndarray) -> tuple[float, float]:
 
 def seed_statistics(scene_path: str, run: dict[str, Any], seeds: int) -> dict[str, Any]:
     """STATISTICS of every setting and of the reference on tracks 1 .. seeds, paired with the reference."""
-    everything = (*SETTINGS, CONVERGED, REFERENCE)
+    everything = (*SETTINGS, REFERENCE)
     names = [s[0] for s in everything]
     values = {name: {key: np.full(seeds, np.nan) for key in STATISTICS} for name in names}
     status = {name: np.zeros(seeds, dtype=int) for name in names}
@@ -313,26 +325,27 @@ def seed_statistics(scene_path: str, run: dict[str, Any], seeds: int) -> dict[st
 # 3. grids and time steps ---------------------------------------------------------------------------------------
 
 
-def grid_cases(scene_path: str, cases, quick: bool, repeats: int) -> list[dict[str, Any]]:
-    """Time every grid / time-step case, run its error run and compare both with the last (reference) case."""
+def grid_cases(scene_path: str, cases, quick: bool) -> list[dict[str, Any]]:
+    """Run (and time, once) every grid / time-step case and its error run; compare both with the last case.
+
+    Samples every 0.5 us (the scene's interval, below the 729-kHz mode's Nyquist period) at every dt; costs are
+    relative to the default grid at the scene's dt.
+    """
     t_end = 2e-4 if quick else 1e-3
     settle = 5e-5 if quick else 2e-4
+    scene_dt = load_scene(scene_path).numerics.dt
     rows = []
     print(f"\n{'case':30s} {'nodes':>6s} {'steps':>6s} {'ms/step':>8s} {'s/ms':>7s} {'FH0 [nm]':>9s} "
           f"{'meanFH':>8s} {'3sig [nm]':>9s} {'Fc [uN]':>8s}")  # fmt: skip
     for label, nx, ny, dt in cases:
         grid = {"numerics.nx": nx, "numerics.ny": ny, "numerics.dt": dt,
-                "numerics.output_interval": max(1, round(1e-6 / dt)) * dt}  # fmt: skip
+                "numerics.output_interval": max(1, round(0.5e-6 / dt)) * dt}  # fmt: skip
         scene = load_scene(scene_path, grid | {"numerics.t_end": t_end, "numerics.settle_time": settle})
         steady = fly_start(scene)
-        is_reference = label.startswith("reference")
-        walls = []
-        for _ in range(1 if is_reference else repeats):
-            t0 = time.perf_counter()
-            result = simulate_abs(scene, steady=steady)
-            walls.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        result = simulate_abs(scene, steady=steady)
+        wall = time.perf_counter() - t0
         s = summarize(result, scene)
-        wall = statistics.median(walls)
         steps = result.work["steps"]
         probe = load_scene(scene_path, grid | DISTURBANCE)
         drop = simulate_abs(probe, steady=fly_start(probe))
@@ -349,7 +362,7 @@ def grid_cases(scene_path: str, cases, quick: bool, repeats: int) -> list[dict[s
               f"{row['steady_flying_height'] * 1e9:9.4f} {row['mean_flying_height'] * 1e9:8.4f} "
               f"{row['bouncing_3sigma'] * 1e9:9.5f} {row['mean_contact_force'] * 1e6:8.4f}", flush=True)  # fmt: skip
     ref = rows[-1]
-    base = next((r for r in rows if r["case"].startswith("default") and abs(r["dt"] - 0.2e-6) < 1e-12), rows[0])
+    base = next((r for r in rows if r["case"].startswith("default") and abs(r["dt"] - scene_dt) < 1e-15), rows[0])
     print(f"\nerrors against {ref['case']}; cost relative to {base['case']} measured in this session")
     print(
         "  drop: smooth disk, zdot0 = -5 mm/s, 200 us; max |FH(t) - FH_ref(t)| over the run and its largest excursion"
@@ -406,7 +419,7 @@ def bench_dataset(rows: list[dict[str, Any]], settings: dict[str, Any], accuracy
     data["setting_speedup"] = var(settings["speedup"], ("timed",), "1",
                                   "baseline wall time per run / this setting's (same session)")  # fmt: skip
     data["baseline_wall_per_step"] = var(settings["baseline_step"], (), "s",
-                                         "median wall time per step of the baseline solver (today's)")  # fmt: skip
+                                         "median wall time per step of the baseline solver (own run)")  # fmt: skip
     data["baseline_wall_per_ms"] = var(settings["baseline_wall"] / t_ms, (), "s",
                                        "median wall time per simulated millisecond of the baseline solver")  # fmt: skip
     names = accuracy["names"]
@@ -440,6 +453,6 @@ def bench_dataset(rows: list[dict[str, Any]], settings: dict[str, Any], accuracy
     ds.attrs["baseline_solver"] = settings["baseline"]
     ds.attrs["accuracy_reference"] = REFERENCE[0]
     ds.attrs["recommended_setting"] = RECOMMENDED
-    ds.attrs["settings"] = "; ".join(f"{name}: {what}" for name, what, _, _ in (*SETTINGS, CONVERGED, REFERENCE))
+    ds.attrs["settings"] = "; ".join(f"{name}: {what}" for name, what, _, _ in (*SETTINGS, REFERENCE))
     ds.attrs["simulated_ms"] = t_ms
     return ds
