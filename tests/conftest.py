@@ -9,12 +9,18 @@ observed order.
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from solver.abs.face import abs_grid
+from solver.abs.forces import SurfaceForces
+from solver.abs.params import AbsScene
+from solver.abs.steady import AbsSteady
 from solver.grid import control_volume_widths
+from solver.kinds import scene_from_dict
 from solver.rails.params import Calibration, Contact, Disk, Initial, Models, Numerics, Scene, Slider
 
 EPS = np.finfo(float).eps
@@ -127,10 +133,73 @@ def chen_bogy(overrides: dict | None = None):
     """chen_bogy2007 with dotted-key overrides ("numerics.nx": 41) applied to its TOML tables."""
     import tomllib
 
-    from solver.kinds import scene_from_dict
-
     data = tomllib.loads(SCENE2_FILE.read_text())
     for key, value in (overrides or {}).items():
         section, _, name = key.partition(".")
         data.setdefault(section, {})[name] = value
     return scene_from_dict(data, source=str(SCENE2_FILE))
+
+
+# scene 2 (kind "abs"): a run started from a chosen attitude, and the free drop of a flat face --------------------
+
+#: chen_bogy2007's face [m].
+LENGTH, WIDTH = 0.85e-3, 0.70e-3
+
+
+def start_at(scene: AbsScene, q) -> AbsSteady:
+    """A run start at attitude q (z, pitch, roll) [m, rad, rad]; only ``q`` is used by simulate_abs."""
+    grid = abs_grid(scene)
+    zero = np.zeros(3)
+    return AbsSteady(
+        q=np.asarray(q, dtype=float),
+        element_spacing=math.nan,
+        min_spacing=math.nan,
+        min_spacing_x=math.nan,
+        min_spacing_y=math.nan,
+        air_force=zero,
+        surface=SurfaceForces(zero, np.zeros((3, 3)), 0.0, 0.0, 0.0, 0),
+        pressure=np.full(grid.shape, scene.air.ambient_pressure),
+        x=grid.x,
+        y=grid.y,
+        depth=grid.depth,
+        iterations=0,
+        reynolds_solves=0,
+        force_residual=0.0,
+        wall_time=0.0,
+    )
+
+
+def drop_scene(dt: float, *, mu: float = 0.0, rho: float | None = None, t_end: float = 10e-6) -> AbsScene:
+    """A flat slider with no air bearing, no suspension, no adhesion falling at 1 mm/s onto a smooth disk.
+
+    The summit density 3.07e8 m^-2 makes the wall soft enough (k = 2.3e10
+    N/m^1.5 over the face) that the impact penetrates 1 nm and lasts 2.9 us:
+    15 steps of 0.2 us.  ``rho``: numerics.rho_infinity (None: the default).
+    """
+    numerics = {"nx": 21, "ny": 21, "dt": dt, "t_end": t_end, "settle_time": 0.0, "output_interval": dt}
+    if rho is not None:
+        numerics["rho_infinity"] = rho
+    data = {
+        "kind": "abs",
+        "slider": {"crown": 0.0, "camber": 0.0},
+        "abs": {
+            "base_depth": 0.0,
+            "refine_region": "",
+            "regions": [{"name": "face", "depth": 0.0, "rect": [0.0, LENGTH, -0.5 * WIDTH, 0.5 * WIDTH]}],
+        },
+        "suspension": {
+            "preload": 0.0,
+            "vertical_stiffness": 0.0,
+            "pitch_stiffness": 0.0,
+            "roll_stiffness": 0.0,
+            "vertical_damping": 0.0,
+            "pitch_damping": 0.0,
+            "roll_damping": 0.0,
+        },
+        "disk": {"rms": 0.0},
+        "contact": {"mu": mu, "delta_gamma": 0.0, "summit_density": 3.07e8},
+        "models": {"air_bearing": "none"},
+        "initial": {"zdot": -1e-3},
+        "numerics": numerics,
+    }
+    return scene_from_dict(data)

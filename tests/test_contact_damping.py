@@ -16,9 +16,9 @@ import math
 
 import numpy as np
 import pytest
+from conftest import drop_scene, start_at
 from scipy.integrate import solve_ivp
 from scipy.linalg import eigh
-from test_partial import drop_scene, start_at
 
 from solver.abs.dynamics import mass_matrix
 from solver.abs.face import abs_grid
