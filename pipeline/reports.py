@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import xarray as xr
 
 from .classify import REGIMES
@@ -88,7 +89,41 @@ def abs_fly(steady: Any, scene: Any, wall: float) -> list[str]:
         "near 1 preload or above, expect no flying equilibrium",
         f"  work               grid {nx} x {ny}, {steady.iterations} attitude iterations, "
         f"{steady.reynolds_solves} sparse Reynolds solves, {steady.wall_time:.2f} s",
+        *region_table(steady, scene),
     ]
+
+
+def region_table(steady: Any, scene: Any) -> list[str]:
+    """What each region carries: load and pitch moment, each with its share of the same-sign total.
+
+    The net values are small differences (the cavity's suction against the
+    pads' lift; the nose-up against the nose-down moment, balanced by the
+    suspension), so a share is taken of the regions pushing the same way: a
+    pad's share of the lift, the cavity's of the suction, the trailing pad's
+    of the nose-down moment.
+    """
+    from solver.abs.face import region_loads
+
+    names, loads = region_loads(scene, steady.x, steady.y, steady.pressure)
+    positive, negative = np.where(loads > 0, loads, 0).sum(axis=0), np.where(loads < 0, loads, 0).sum(axis=0)
+
+    def share(value: float, column: int) -> str:
+        total = positive[column] if value > 0 else negative[column]
+        return f"{value / total:6.1%}" if total else "     -"
+
+    width = max(len(n) for n in names + ["sum (node quadrature)"])
+    lines = [
+        "  loads by region (share: of the lift, or of the suction; of the nose-up, or of the nose-down moment)",
+        f"  {'region':<{width}}  load [mN]   share  pitch moment [nN m]   share",
+    ]
+    for name, (f, mp, _) in zip(names, loads, strict=True):
+        lines.append(f"  {name:<{width}}  {f * 1e3:9.4f}  {share(f, 0)}  {mp * 1e9:19.2f}  {share(mp, 1)}")
+    total = loads.sum(axis=0)
+    lines.append(
+        f"  {'sum (node quadrature)':<{width}}  {total[0] * 1e3:9.4f}          {total[1] * 1e9:19.2f}   (the film's "
+        f"force with its cut links: {steady.air_force[0] * 1e3:.4f} mN, {steady.air_force[1] * 1e9:.2f} nN m)"
+    )
+    return lines
 
 
 def abs_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:

@@ -12,7 +12,7 @@ faces, :mod:`solver.abs.cuts`) every grid from 81 x 67 to 321 x 271 flies.
 from __future__ import annotations
 
 import pytest
-from conftest import chen_bogy
+from conftest import WIDTH, chen_bogy
 
 from solver.abs.steady import fly_abs, fly_start
 from solver.errors import AttitudeError
@@ -83,3 +83,31 @@ def test_strong_adhesion_reports_the_fold():
     steady = fly_start(scene)
     assert f"the fold lies at delta_gamma = {fold:.4g}" in steady.note
     assert steady.surface.adhesion == 0.0
+
+
+def test_region_loads_add_up_and_mirror_on_a_symmetric_face():
+    """What each region carries: the rows sum to the film's node quadrature, and on a face symmetric in y, with
+    the disk moving along x (skew 0), mirrored regions carry the same load and opposite roll moments."""
+    import numpy as np
+
+    from solver.abs.face import region_loads
+    from solver.abs.film import AbsFilm
+    from solver.kernels.film import film_forces
+
+    scene = chen_bogy({"disk.skew": 0.0, "disk.rms": 0.0, "contact.delta_gamma": 0.0})
+    film = AbsFilm(scene)
+    steady = fly_abs(scene, film)
+    names, loads = region_loads(scene, steady.x, steady.y, steady.pressure)
+    p0 = scene.air.ambient_pressure
+    g = film.grid
+    node = p0 * np.array(film_forces(steady.pressure[None] / p0, g.area, g.x, g.y, *film.pivot))
+    assert np.abs(loads.sum(axis=0) - node).max() <= 1e-12 * np.abs(node).max()
+    left, right = loads[names.index("left rail")], loads[names.index("right rail")]
+    scale = np.abs(loads[:, 0]).max()
+    assert abs(left[0] - right[0]) <= 1e-6 * scale, (left, right)
+    assert abs(left[2] + right[2]) <= 1e-6 * scale * WIDTH, (left, right)
+    assert left[2] != 0.0
+    # the pads lift, the cavity pulls, and the trailing pad's load pitches the nose down
+    pad = loads[names.index("trailing pad")]
+    assert loads[names.index("cavity (base)"), 0] < 0 < loads[names.index("front pad"), 0]
+    assert pad[0] > 0 > pad[1]

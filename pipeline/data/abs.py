@@ -9,6 +9,7 @@ import xarray as xr
 
 from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, REGIME_FLAGS, STATUS_FLAGS, abs_regime
 from pipeline.data.netcdf import product_attrs, var
+from solver.abs.face import region_loads
 from solver.abs.integrate import AbsResult, spectrum, summarize
 from solver.abs.params import SERIES, AbsScene
 from solver.abs.steady import AbsSteady
@@ -43,9 +44,16 @@ def fly_dataset(steady: AbsSteady, scene: AbsScene) -> xr.Dataset:
                                            "and roll until its lowest point is at eps")  # fmt: skip
     data["touchdown_lowering"] = var(steady.touchdown_lowering, (), "m", "lowering of the face for the fold estimate")
     data["wall_time"] = var(steady.wall_time, (), "s", "wall time of the steady solve")
+    names, loads = region_loads(scene, steady.x, steady.y, steady.pressure)
+    data["region_load"] = var(loads[:, 0], ("region",), "N", "air-bearing load carried by the region (node quadrature)")
+    data["region_pitch_moment"] = var(loads[:, 1], ("region",), "N m",
+                                      "pitch moment of the region's air-bearing load about the pivot")  # fmt: skip
+    data["region_roll_moment"] = var(loads[:, 2], ("region",), "N m",
+                                     "roll moment of the region's air-bearing load about the pivot")  # fmt: skip
     coords = {
         "x": ("x", steady.x, {"units": "m", "long_name": "position from the leading edge"}),
         "y": ("y", steady.y, {"units": "m", "long_name": "position from the centre line"}),
+        "region": ("region", names, {"long_name": "face region (painted in order; the cavity is the rest)"}),
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(product_attrs(f"Steady flight of scene {scene.name}", scene, "fly"))

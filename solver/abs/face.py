@@ -88,6 +88,31 @@ def depth(x: np.ndarray, y: np.ndarray, scene: AbsScene) -> np.ndarray:
     return out
 
 
+def region_loads(scene: AbsScene, x: np.ndarray, y: np.ndarray, pressure: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """What each region of the face carries: gauge load [N] and pitch and roll moments about the pivot [N m].
+
+    The node quadrature of the gauge pressure on the grid (x, y) [m], every
+    control volume given to the region that paints its node (later regions
+    win; "cavity (base)" is the rest).  Signs as the film's forces: a
+    positive pitch moment lifts the leading edge, a positive roll moment the
+    y < 0 side.  The rows sum to the node quadrature of the whole face; the
+    film's force (:meth:`AbsFilm.forces`) adds the cut links' exact profiles
+    to it, which no region is given.  Returns the names and an (n, 3) array.
+    """
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    owner = np.full(X.shape, -1)
+    for k, region in enumerate(scene.abs.regions):
+        owner[inside_polygon(X, Y, region_geometry(region, scene))] = k
+    load = (pressure - scene.air.ambient_pressure) * control_volume_widths(x)[:, None] * control_volume_widths(y)
+    arm_x, arm_y = X - scene.slider.pivot_x, Y - scene.slider.pivot_y
+    names = ["cavity (base)"] + [region.name for region in scene.abs.regions]
+    out = np.zeros((len(names), 3))
+    for k in range(-1, len(scene.abs.regions)):
+        on = owner == k
+        out[k + 1] = load[on].sum(), -(load[on] * arm_x[on]).sum(), -(load[on] * arm_y[on]).sum()
+    return names, out
+
+
 def shape(x: np.ndarray, y: np.ndarray, scene: AbsScene) -> np.ndarray:
     """Crown, camber and twist contribution to the spacing [m] (zero at the face centre)."""
     s = scene.slider
