@@ -384,3 +384,26 @@ def test_fold_estimate_is_reported(asperity_flight):
     assert f"adhesion at touchdown {steady.touchdown_adhesion * 1e3:.3f} mN = {ratio:.3g} preloads" in lines
     assert "asperity_dmt adhesion law" in lines
     assert math.isfinite(steady.touchdown_lowering)
+
+
+@pytest.mark.parametrize("drop_by", [1.8e-9, 2.2e-9])
+def test_rough_elastic_contact_on_the_face(asperity_flight, drop_by):
+    """The elastic law on a rough track (asperities on the half-spaces): contact below the rigid asperity law's on
+    every cell, and the generalized force's Jacobian in (z, pitch, roll) against central differences."""
+    scene, film, surface, steady = asperity_flight
+    elastic = SurfaceModel(dataclasses.replace(scene, models=dataclasses.replace(scene.models, contact="elastic")),
+                           film.grid)  # fmt: skip
+    sigma = np.full(film.shape, scene.disk.rms)
+    q = steady.q - [drop_by, 0.0, 0.0]
+    rough = elastic.forces(film.spacing(q), sigma)
+    rigid = surface.forces(film.spacing(q), sigma)
+    assert 0.0 < rough.contact < 0.1 * rigid.contact  # the bulk compliance: 1.4 against 47 mN at 1.8 nm
+    steps = np.array([1e-12, 0.0, 0.0])  # [m]; the angles move the far corner by 1e-12 m
+    steps[1:] = 1e-12 / np.array([film.grid.x.max(), film.grid.y.max()])
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = steps[k]
+        fd = (elastic.forces(film.spacing(q + e), sigma).f - elastic.forces(film.spacing(q - e), sigma).f) / (
+            2 * steps[k]
+        )
+        np.testing.assert_allclose(rough.dfdq[:, k], fd, rtol=1e-5, atol=1e-6 * np.abs(rough.dfdq).max())

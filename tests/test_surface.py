@@ -372,3 +372,85 @@ def test_contact_without_interpenetration_and_failure():
     C = influence_matrix(x, y, 0.5 * width, 0.5 * width, E_COMPOSITE)
     with pytest.raises(ElasticContactError, match="did not converge"):
         solve_contact((x**2 + y**2) / 2e-3 - 1e-8, C, max_iter=1)
+
+
+# rough elastic contact: asperities (Greenwood-Williamson) on the elastic half-spaces ------------------------------
+
+
+@pytest.fixture(scope="module")
+def rough_sphere():
+    """The Hertz sphere (R = 1 mm, 10 nm approach) on 15 x 15 uniform cells, its gap measured to the mean planes."""
+    radius, delta = 1e-3, 1e-8
+    x, y, width = uniform_grid(15, 1.3 * np.sqrt(radius * delta))
+    C = influence_matrix(x, y, 0.5 * width, 0.5 * width, E_COMPOSITE)
+    d = EPS_LJ + (x**2 + y**2) / (2.0 * radius) - delta  # rigid separation of the mean planes
+    return {"C": C, "d": d, "area": np.full(x.size, width**2), "delta": delta}
+
+
+def rigid_gw(d, sigma):
+    out = np.empty((2, d.size))
+    kernels.contact_pressures(np.ascontiguousarray(d), np.full(d.size, sigma), EPS_LJ, GW_COEF, out)
+    return out
+
+
+@pytest.mark.parametrize("sigma", [0.5e-9, 2e-9])
+def test_rough_contact_solves_the_series_law(rough_sphere, sigma):
+    """u = d + C P(u) on every cell to 1e-12 sigma, and the bulk compliance only lowers a pressure: 0 < p <= P(d)."""
+    from solver.elastic import solve_rough_contact
+
+    s = rough_sphere
+    p, _, iterations = solve_rough_contact(s["d"], np.full(s["d"].size, sigma), s["C"], EPS_LJ, GW_COEF)
+    u = s["d"] + s["C"] @ p
+    P_u = rigid_gw(u, sigma)[0]
+    np.testing.assert_allclose(p, P_u, rtol=1e-6, atol=1e-6 * p.max())
+    assert np.all(p > 0.0) and np.all(p <= rigid_gw(s["d"], sigma)[0] * (1 + 1e-12))
+    assert (p @ s["area"]) < 0.5 * (rigid_gw(s["d"], sigma)[0] @ s["area"])  # the half-space carries real compliance
+    assert iterations <= 30
+
+
+def test_rough_contact_limits(rough_sphere):
+    """A stiff half-space (C -> 0) gives the Greenwood-Williamson pressures; a stiff asperity layer (summits 1e6
+    times stiffer) of vanishing roughness gives the smooth complementarity solution's load, the Hertz load, with an
+    error shrinking in proportion to sigma (the summits stand a few sigma above the mean plane)."""
+    from solver.elastic import solve_rough_contact
+
+    s = rough_sphere
+    n = s["d"].size
+    sigma = 1e-9
+    p, _, _ = solve_rough_contact(s["d"], np.full(n, sigma), 1e-12 * s["C"], EPS_LJ, GW_COEF)
+    np.testing.assert_allclose(p, rigid_gw(s["d"], sigma)[0], rtol=1e-6)
+    p_smooth, _ = solve_contact(s["d"] - EPS_LJ, s["C"])
+    smooth = p_smooth @ s["area"]
+    errors = []
+    for sigma in (0.1e-9, 0.03e-9, 0.01e-9):
+        p, _, _ = solve_rough_contact(s["d"], np.full(n, sigma), s["C"], EPS_LJ, 1e6 * GW_COEF)
+        errors.append(p @ s["area"] / smooth - 1.0)
+    assert errors[0] > 3.0 * errors[1] > 9.0 * errors[2] > 0.0 and errors[2] < 0.006, errors
+
+
+def test_rough_contact_jacobian_matches_finite_difference(rough_sphere):
+    """dp/dd against central differences of the separations: a rigid approach and two random directions."""
+    from solver.elastic import solve_rough_contact
+
+    s = rough_sphere
+    n = s["d"].size
+    sigma = np.full(n, 1e-9)
+    _, dpdd, _ = solve_rough_contact(s["d"], sigma, s["C"], EPS_LJ, GW_COEF)
+    step = 1e-4 * sigma[0]
+    rng = np.random.default_rng(7)
+    for v in (np.ones(n), rng.uniform(0.5, 1.5, n), rng.uniform(-1.0, 1.0, n)):
+        p_plus, _, _ = solve_rough_contact(s["d"] + step * v, sigma, s["C"], EPS_LJ, GW_COEF)
+        p_minus, _, _ = solve_rough_contact(s["d"] - step * v, sigma, s["C"], EPS_LJ, GW_COEF)
+        fd = (p_plus - p_minus) / (2.0 * step)
+        np.testing.assert_allclose(dpdd @ v, fd, rtol=1e-5, atol=1e-7 * np.abs(fd).max())
+
+
+def test_rough_contact_refuses_a_smooth_cell_and_reports_no_convergence(rough_sphere):
+    from solver.elastic import solve_rough_contact
+
+    s = rough_sphere
+    n = s["d"].size
+    with pytest.raises(ValueError, match="sigma > 0"):
+        solve_rough_contact(s["d"], np.zeros(n), s["C"], EPS_LJ, GW_COEF)
+    with pytest.raises(ElasticContactError, match="did not converge"):
+        solve_rough_contact(s["d"], np.full(n, 0.1e-9), s["C"], EPS_LJ, GW_COEF, max_iter=1)

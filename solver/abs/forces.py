@@ -141,7 +141,7 @@ class SurfaceModel:
         ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, out)
         pc, dpc, pa, dpa = out
         if self.law == "elastic":
-            pc, dpc_matrix = self._elastic_pressure(near, dn)
+            pc, dpc_matrix = self._elastic_pressure(near, dn, sn, pc)
         area = self.area[near]
         b = self.b[:, near] if b is None else b
         fc = pc * area
@@ -156,25 +156,40 @@ class SurfaceModel:
         in_reach = int(np.count_nonzero(dn < self.reach + REACH_SIGMAS * sn))
         return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach)
 
-    def _elastic_pressure(self, near: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Elastic half-space contact on the cells whose rigid gap d - eps is negative (others cannot touch)."""
-        from solver.elastic import influence_matrix, solve_contact
+    def _elastic_pressure(
+        self, near: np.ndarray, d: np.ndarray, sigma: np.ndarray, rigid: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Elastic half-space contact on the cells near the disk: contact pressures and their Jacobian d p / d d.
 
-        gap = d - self.eps
-        pc = np.zeros(d.size)
-        dp = np.zeros((d.size, d.size))
-        touching = np.flatnonzero(gap < 0.0)
-        if touching.size == 0:
-            return pc, dp
-        ny = self.grid.y.size
-        i, j = np.divmod(near[touching], ny)
+        On a rough disk (every cell's unresolved sigma > 0) the cells' asperities sit on the half-spaces
+        (:func:`solver.elastic.solve_rough_contact`), on the cells closer than eps + REACH_SIGMAS sigma, whose rigid
+        asperity pressure ``rigid`` is not 0 (the deflection only lowers a pressure; beyond 6 sigma a cell carries
+        less than 1e-9 of a touching cell's pressure and is left out).
+        On a smooth disk it is the complementarity problem on the cells whose rigid gap d - eps is negative.
+        """
+        from solver.elastic import influence_matrix, solve_contact, solve_rough_contact
         from solver.grid import control_volume_widths
 
+        pc = np.zeros(d.size)
+        dp = np.zeros((d.size, d.size))
+        rough = bool(np.all(sigma > 0.0))
+        if rough:
+            cells = np.flatnonzero((d - self.eps < REACH_SIGMAS * sigma) & (rigid > 0.0))
+        else:
+            cells = np.flatnonzero(d - self.eps < 0.0)
+        if cells.size == 0:
+            return pc, dp
+        i, j = np.divmod(near[cells], self.grid.y.size)
         wx, wy = control_volume_widths(self.grid.x), control_volume_widths(self.grid.y)
         C = influence_matrix(self.grid.x[i], self.grid.y[j], 0.5 * wx[i], 0.5 * wy[j], self.e_composite)
-        p, active = solve_contact(gap[touching], C, ELASTIC_TOLERANCE)
-        pc[touching] = p
-        act = touching[np.asarray(active, dtype=bool)]
+        if rough:
+            p, dpdd, _ = solve_rough_contact(d[cells], sigma[cells], C, self.eps, self.gw_coef)
+            pc[cells] = p
+            dp[np.ix_(cells, cells)] = dpdd
+            return pc, dp
+        p, active = solve_contact(d[cells] - self.eps, C, ELASTIC_TOLERANCE)
+        pc[cells] = p
+        act = cells[np.asarray(active, dtype=bool)]
         if act.size:
             sub = np.flatnonzero(np.asarray(active, dtype=bool))
             dp[np.ix_(act, act)] = -np.linalg.inv(C[np.ix_(sub, sub)])

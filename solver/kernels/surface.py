@@ -353,6 +353,13 @@ def adhesion_by_law(
 
 
 @njit
+def contact_pressures(d: np.ndarray, sigma: np.ndarray, eps: float, gw_coef: float, out: np.ndarray) -> None:
+    """Fill ``out`` (2, n) with the Greenwood-Williamson p_c and dp_c/dd per cell (:func:`contact_pressure`)."""
+    for i in range(d.size):
+        out[0, i], out[1, i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
+
+
+@njit
 def surface_pressures(
     d: np.ndarray,
     sigma: np.ndarray,
