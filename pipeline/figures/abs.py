@@ -118,27 +118,134 @@ def _short_name(coord: xr.DataArray, default: str) -> str:
     return coord.attrs.get("long_name", default).split(" (")[0].split(": ")[0]
 
 
+def _face_scene(ds: xr.Dataset):
+    """The fly file's scene (its ``scene_toml``), or None for a file without one."""
+    import tomllib
+
+    from solver.kinds import scene_from_dict
+
+    try:
+        scene = scene_from_dict(tomllib.loads(ds.attrs.get("scene_toml", "")))
+        return scene if hasattr(scene, "abs") else None
+    except Exception:  # a file without its scene is drawn without the outlines
+        return None
+
+
+def _zoom_regions(shapes: list[np.ndarray], pad: np.ndarray | None, length: float) -> list[int]:
+    """Regions [indices] of the trailing-end zoom: the pad, and those behind mid-length that overlap it across the
+    track and end at most 0.15 mm ahead of it (the face's last 15 % without a pad)."""
+    if pad is None:
+        return [k for k, v in enumerate(shapes) if v[:, 0].min() >= 0.85 * length] or [len(shapes) - 1]
+    (px0, py0), (_, py1) = pad.min(axis=0), pad.max(axis=0)
+    return [k for k, v in enumerate(shapes) if v[:, 0].min() >= 0.5 * length and v[:, 0].max() >= px0 - 0.15
+            and v[:, 1].min() < py1 and v[:, 1].max() > py0]  # fmt: skip
+
+
+def _draw_face(ax, ds, scene, x, y, window=None, labelled=()):
+    """Etch depth (log scale) with each region's outline, and its name and depth where it shows on the face (the
+    node it paints nearest its painted area's centroid); ``window`` ((x0, x1), (y0, y1)) [mm] zooms, and labels the
+    regions ``labelled`` (indices) with their sizes (the whole face leaves them, and any below 1 % of it, out)."""
+    from matplotlib.colors import LogNorm
+
+    from solver.abs.face import inside_polygon, region_geometry
+
+    depth = np.maximum(ds["depth"].values * 1e9, 1.0)  # pad tops (0) drawn at 1 nm
+    m = ax.pcolormesh(x, y, depth.T, shading="nearest", cmap="Greys", norm=LogNorm(1.0, max(2.0, depth.max())))
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    owner = np.full(X.shape, -1)
+    shapes = [region_geometry(r, scene) * 1e3 for r in scene.abs.regions]
+    for k, v in enumerate(shapes):
+        owner[inside_polygon(X, Y, v)] = k
+    area = np.outer(np.gradient(x), np.gradient(y))
+    stacked = 0
+    for k, (region, v) in enumerate(zip(scene.abs.regions, shapes, strict=True)):
+        closed = np.vstack([v, v[:1]])
+        ax.plot(closed[:, 0], closed[:, 1], color="tab:blue", lw=0.8)
+        on = owner == k
+        if window is None:
+            if k in labelled or area[on].sum() < 0.01 * area.sum():  # the zoom labels these
+                continue
+        elif k not in labelled or not on.any():  # the zoom labels its own regions
+            continue
+        cx, cy = X[on].mean(), Y[on].mean()
+        k_near = np.argmin((X[on] - cx) ** 2 + (Y[on] - cy) ** 2)
+        anchor = X[on][k_near], Y[on][k_near]
+        label = f"{region.name}, {region.depth * 1e9:.0f} nm"
+        style = {
+            "fontsize": 7,
+            "color": "tab:blue",
+            "bbox": {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none"},
+        }
+        if window is None:
+            ax.text(*anchor, label.replace(", ", "\n"), ha="center", va="center", **style)
+            continue
+        (x0, y0), (x1, y1) = v.min(axis=0), v.max(axis=0)
+        label += f", {(x1 - x0) * 1e3:.0f} x {(y1 - y0) * 1e3:.0f} um"
+        (wx0, wx1), (wy0, wy1) = window
+        spot = (wx0 + 0.02 * (wx1 - wx0), wy1 - (0.06 + 0.07 * stacked) * (wy1 - wy0))
+        ax.annotate(label, anchor, spot, ha="left", va="center", arrowprops={"arrowstyle": "-", "color": "tab:blue",
+                    "lw": 0.6}, **style)  # fmt: skip
+        stacked += 1
+    if window is not None:
+        ax.set_xlim(*window[0])
+        ax.set_ylim(*window[1])
+    return m
+
+
 def plot_fly(ds: xr.Dataset) -> Figure:
-    """Steady pressure over the face, with the etched regions' outlines."""
+    """The face, its regions (etch depth, outlines, names; the trailing end zoomed, with sizes) and the steady
+    pressure over it; the element is the star."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
-    x, y = ds["x"].values * 1e3, ds["y"].values * 1e3
     from matplotlib.colors import TwoSlopeNorm
 
+    from solver.abs.face import region_geometry
+
+    x, y = ds["x"].values * 1e3, ds["y"].values * 1e3
+    scene = _face_scene(ds) if "depth" in ds else None
     p = ds["pressure"].values / 101.325e3
     norm = TwoSlopeNorm(vmin=0.0, vcenter=1.0, vmax=max(2.0, float(p.max())))  # sub-ambient blue, above red
-    m = ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
-    fig.colorbar(m, ax=ax, label="p / p_ambient")
-    if "depth" in ds:
-        ax.contour(x, y, ds["depth"].values.T * 1e6, levels=[0.05, 0.5], colors="k", linewidths=0.6)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x from the leading edge [mm]")
-    ax.set_ylabel("y [mm]")
-    ax.set_title(
-        f"{ds.attrs.get('scene', '')}: flying height {float(ds['flying_height']) * 1e9:.2f} nm, "
-        f"pitch {float(ds['pitch']) * 1e6:.1f} urad, roll {float(ds['roll']) * 1e6:.2f} urad",
-        fontsize=10,
-    )
+    title = (f"{ds.attrs.get('scene', '')}: flying height {float(ds['flying_height']) * 1e9:.2f} nm, "
+             f"pitch {float(ds['pitch']) * 1e6:.1f} urad, roll {float(ds['roll']) * 1e6:.2f} urad")  # fmt: skip
+    if scene is None:
+        fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
+        fig.colorbar(
+            ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm), ax=ax, label="p / p_ambient"
+        )
+        ax.set_title(title, fontsize=10)
+        axes = [ax]
+    else:
+        fig, grid = plt.subplots(2, 2, figsize=(12.0, 9.0), constrained_layout=True,
+                                 gridspec_kw={"width_ratios": [1.6, 1.0]})  # fmt: skip
+        axes = list(grid.ravel())
+        fig.suptitle(title, fontsize=11)
+        shapes = [region_geometry(r, scene) * 1e3 for r in scene.abs.regions]
+        pad = [v for r, v in zip(scene.abs.regions, shapes, strict=True) if r.name == scene.abs.refine_region]
+        near = _zoom_regions(shapes, pad[0] if pad else None, x.max())
+        m = _draw_face(axes[0], ds, scene, x, y, labelled=near)
+        fig.colorbar(m, ax=axes[0], label="etch depth [nm] (pad tops drawn at 1)")
+        axes[0].set_title("(a) the face: regions and etch depths", fontsize=10)
+        m = axes[2].pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
+        fig.colorbar(m, ax=axes[2], label="p / p_ambient")
+        axes[2].set_title("(c) steady pressure", fontsize=10)
+        # the zoom: the trailing pad and the regions behind mid-length beside or ahead of it (up to 0.15 mm)
+        trailing = np.vstack([shapes[k] for k in near])
+        (lo_x, lo_y), hi_y = trailing.min(axis=0), trailing[:, 1].max()
+        window = ((lo_x - 0.01, x.max()), (lo_y - 0.02, hi_y + 0.02))
+        _draw_face(axes[1], ds, scene, x, y, window, near)
+        axes[1].set_title("(b) the trailing end", fontsize=10)
+        axes[3].pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
+        for v in shapes:
+            closed = np.vstack([v, v[:1]])
+            axes[3].plot(closed[:, 0], closed[:, 1], color="k", lw=0.5)
+        axes[3].set_xlim(*window[0])
+        axes[3].set_ylim(*window[1])
+        axes[3].set_title("(d) pressure at the trailing end", fontsize=10)
+    for a in axes:
+        a.set_aspect("equal")
+        a.set_xlabel("x from the leading edge [mm]")
+        a.set_ylabel("y [mm]")
+        if scene is not None:
+            a.plot(scene.slider.element_x * 1e3, scene.slider.element_y * 1e3, "*", color="gold", mec="k", ms=9)
     return fig
 
 
