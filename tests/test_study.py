@@ -599,6 +599,10 @@ def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
         assert np.isfinite(ds["bouncing_3sigma"].values).all() and (ds["mean_contact_force"].values >= 0).all()
         assert ds["flying_height"].dims[-1] == "time"
         np.testing.assert_allclose(ds["regime_fraction"].sum("regimes").values, 1.0, rtol=1e-12)
+        from pipeline.figures.common import save_figure
+        from pipeline.kinds import plot_dataset
+
+        assert save_figure(plot_dataset(ds), tmp_path / f"{study.name}.png").stat().st_size > 10_000  # named axes too
         return
     axes = load_study(path).axes
     grid_axes = {a.key for a in axes} & {"numerics.nx", "numerics.ny"}

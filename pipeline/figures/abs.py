@@ -72,10 +72,13 @@ def plot_study(ds: xr.Dataset) -> Figure:
     fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
     x = ds[first].values
     scale_x, xunit = _scale(ds[first])
+    names = None
+    if x.dtype.kind in "OUS":  # a named axis (a model law): the cells side by side, named on the ticks
+        names, x, scale_x = [str(v) for v in x], np.arange(x.size, dtype=float), 1.0
     stacked = ds.stack(line=rest) if rest else ds.expand_dims(line=[0])
     for k in range(stacked.sizes["line"]):
         cell = stacked.isel(line=k)
-        label = ", ".join(f"{d} = {float(cell[d]) * _scale(ds[d])[0]:g} {_scale(ds[d])[1]}" for d in rest) or None
+        label = ", ".join(_cell_label(cell, ds, d) for d in rest) or None
         for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
             y = cell[name].values * scale
             half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
@@ -88,9 +91,12 @@ def plot_study(ds: xr.Dataset) -> Figure:
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
     for ax in axes:
-        ax.set_xlabel(f"{_short_name(ds[first], first)} [{xunit}]")
+        ax.set_xlabel(_short_name(ds[first], first) + ("" if names else f" [{xunit}]"))
         ax.grid(alpha=0.3)
         ax.set_ylim(bottom=0.0)
+        if names:
+            ax.set_xticks(x, [n.replace("_", " ") for n in names])
+            ax.set_xlim(x[0] - 0.5, x[-1] + 0.5)
     if rest:
         axes[1].legend(fontsize=8, frameon=False)
     failed = int(np.count_nonzero(ds["status"].values == -1))
@@ -100,8 +106,19 @@ def plot_study(ds: xr.Dataset) -> Figure:
     return fig
 
 
+def _cell_label(cell: xr.Dataset, ds: xr.Dataset, dim: str) -> str:
+    """ "dim = value unit" of one line's coordinate (a named value as it is)."""
+    value = cell[dim].values
+    if value.dtype.kind in "OUS":
+        return f"{dim} = {value}"
+    scale, unit = _scale(ds[dim])
+    return f"{dim} = {float(value) * scale:g} {unit}"
+
+
 def _scale(coord: xr.DataArray) -> tuple[float, str]:
     units = coord.attrs.get("units", "")
+    if coord.dtype.kind in "OUS":
+        return 1.0, ""
     if units == "m":
         span = float(np.nanmax(np.abs(coord.values))) if coord.size else 0.0
         return (1e6, "um") if span >= 1e-6 else (1e9, "nm")
