@@ -189,8 +189,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 def print_boundary(ds) -> None:
     from pipeline.data.query import boundary_table
 
+    low = ds.attrs.get("boundary_classes", "stable (low)").split(" (")[0]
     print(f"boundary on {ds.attrs['boundary_axis']} ({ds.attrs['boundary_method']}), "
-          f"stable {ds.attrs['boundary_stable_side']}:")  # fmt: skip
+          f"{low} {ds.attrs['boundary_stable_side']}:")  # fmt: skip
     print(boundary_table(ds))
 
 

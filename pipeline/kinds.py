@@ -7,6 +7,7 @@ kind (parameters, fly, simulate, warm-up) is :class:`solver.kind.SceneKind` in :
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -19,6 +20,48 @@ from .classify import Output
 
 
 @dataclass(frozen=True)
+class Traced:
+    """The two-valued class a boundary study traces, read from one flag output of a kind's runs.
+
+    ``flag`` is an int8 output with ``flag_values`` 0, 1, ... (its names ``levels``) and -1 where a run is not
+    classified.  A run is on the *low* side when its flag is below the threshold level (one of ``thresholds``,
+    named in the study's ``[boundary] threshold``; ``default_threshold`` when the study names none), on the
+    *high* side at or above it.  A two-valued flag has no choice: ``thresholds`` is empty and the low class is
+    ``fixed_low`` (the flag value that counts as low).  A boundary study's ``stable_side`` says on which side of
+    its axis the low class lies.
+    """
+
+    flag: str
+    levels: tuple[str, ...]
+    thresholds: tuple[str, ...] = ()
+    default_threshold: str | None = None
+    fixed_low: int = 1
+
+    def classes(self, values: Any, threshold: str | None = None) -> Any:
+        """1 (low class), 0 (high class) or -1 (not classified) for each flag value."""
+        import numpy as np
+
+        values = np.asarray(values)
+        if self.thresholds:
+            level = self.levels.index(threshold or self.default_threshold)
+            low = (values >= 0) & (values < level)
+        else:
+            low = values == self.fixed_low
+        return np.where(values < 0, -1, np.where(low, 1, 0)).astype(np.int8)
+
+    def names(self, threshold: str | None = None) -> tuple[str, str]:
+        """Names of the low and the high class, e.g. ("stable", "unstable") or ("flying", "intermittent_contact
+        or above")."""
+        if not self.thresholds:
+            low = self.levels[self.fixed_low]
+            return low, self.levels[1 - self.fixed_low]
+        level = self.levels.index(threshold or self.default_threshold)
+        low = self.levels[0] if level == 1 else f"below {self.levels[level]}"
+        high = self.levels[level] if level == len(self.levels) - 1 else f"{self.levels[level]} or above"
+        return low, high
+
+
+@dataclass(frozen=True)
 class Adapter:
     """The pipeline's side of a scene kind.
 
@@ -26,7 +69,8 @@ class Adapter:
     study.  ``outputs`` declares every scalar of such a record once (units, long name, dtype and fill in a study
     dataset); ``study_outputs`` are kept by default, the others when a study lists them, ``required_outputs``
     always.  ``class_flag`` names the
-    two-valued class a boundary or multi-fidelity study traces (None: those modes are refused).
+    two-valued class a multi-fidelity study traces (None: that mode is refused); ``traced`` is the class a
+    boundary study traces (:class:`Traced`; None: boundary mode is refused).
     ``category`` names the flag output whose share over a cell's realisations a study reports
     (``<category>_fraction``, e.g. ``regime_fraction``; None: no such output).
     ``run_inputs(scene)`` reads what a run needs from files (the solver reads none).
@@ -58,6 +102,7 @@ class Adapter:
     figures: Mapping[str, Callable[..., Any]]
     bench: Callable[[Any], int] | None
     series_kept: Mapping[str, tuple[str, str]]
+    traced: Traced | None = None
     modes: Callable[[Any, Any], tuple[list[str], dict[str, xr.Variable]]] | None = None
 
     @property
@@ -114,6 +159,7 @@ def _adapters() -> dict[str, Adapter]:
         ABS_SERIES_KEPT,
         RAILS_OUTPUTS,
         RAILS_RESTITUTION_OUTPUTS,
+        REGIMES,
         abs_record,
         rails_record,
     )
@@ -148,6 +194,7 @@ def _adapters() -> dict[str, Adapter]:
         },  # fmt: skip
         bench=bench_rails.run_bench,
         series_kept={},
+        traced=Traced("stable", ("unstable", "stable")),
     )
     abs_ = Adapter(
         name="abs",
@@ -176,6 +223,7 @@ def _adapters() -> dict[str, Adapter]:
         },  # fmt: skip
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
+        traced=Traced("regime", REGIMES, REGIMES[1:], "intermittent_contact"),
         modes=data_abs.modes,
     )
     return {a.name: a for a in (rails, abs_)}
@@ -206,7 +254,8 @@ def adapter_of(thing: Any) -> Adapter:
 def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Any:
     """The figure of a file written by this project: looked up by its ``scene_kind`` and ``product`` attributes.
 
-    ``overlay`` (a boundary study of the same axes) is drawn over a study of a kind with a class flag.  A study
+    ``overlay`` (a boundary study of the same axes) is drawn over a map (scene 1's stability map, scene 2's regime
+    map); other figures refuse it.  A study
     whose file names a ``figure`` (``attrs["figure"]``) gets that figure of its kind.
     """
     adapter = adapter_of(ds)
@@ -217,4 +266,9 @@ def plot_dataset(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Any:
             f"no figure for a {product or 'file without a product attribute'} of kind {adapter.name!r} "
             f"(figures of this kind: {', '.join(adapter.figures) or 'none'})"
         )
-    return figure(ds) if overlay is None else figure(ds, overlay)
+    if overlay is None:
+        return figure(ds)
+    if "overlay" not in inspect.signature(figure).parameters:
+        raise ValueError(f"the {ds.attrs.get('figure') or product} figure of kind {adapter.name!r} draws no overlay "
+                         "(a boundary study is drawn over a stability or regime map)")  # fmt: skip
+    return figure(ds, overlay)

@@ -96,9 +96,10 @@ SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
 
 
 #: Scene 2's studies in reproduce: the four Table-I sweeps and the regime map, 8 track realisations per cell
-#: (4 in the map); then, unless --quick, the statistics study (3 time steps x 8 realisations; its dt = 0.025 us
-#: runs cost twice the default).  They share one ledger (``.ledger/scene2``): a run is keyed by its scene, so the
-#: default cell that every sweep, the map and the statistics hold is computed once (268 runs, 198 distinct).
+#: (4 in the map, whose flying boundary is then traced per track by bisection); then, unless --quick, the
+#: statistics study (3 time steps x 8 realisations; its dt = 0.025 us runs cost twice the default).  They share
+#: one ledger (``.ledger/scene2``): a run is keyed by its scene, so the default cell that every sweep, the map and
+#: the statistics hold is computed once (268 runs, 198 distinct).
 SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction", "pad_preload_map")
 SCENE2_STATISTICS = "statistics"
 
@@ -128,6 +129,16 @@ def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
                       quiet=args.quiet)  # fmt: skip
         print(f"study {name}: {o.computed} runs computed, {o.reused} from the ledger, {o.failed} failed, "
               f"wall time {o.wall_time:.1f} s, run time {o.run_time:.1f} core-s")  # fmt: skip
-        print(f"wrote {save_figure(plot_dataset(o.dataset), out / f'{name}.png')}")
+        overlay = None
+        if study.boundary is not None:  # the map's boundary, traced per track on the same ledger (the grid's runs
+            # on the bisection lattice are reused): <name>_boundary.nc, drawn over the map
+            bisect = load_study(study.path, mode="boundary")
+            traced = run_study(bisect, out / f"{name}_boundary.nc", ledger_dir=out / ".ledger" / "scene2",
+                               workers=args.workers, quiet=args.quiet)  # fmt: skip
+            print(f"study {name}_boundary: {traced.computed} runs computed, {traced.reused} from the ledger, "
+                  f"{traced.failed} failed, wall time {traced.wall_time:.1f} s")  # fmt: skip
+            print_boundary(traced.dataset)
+            overlay = traced.dataset
+        print(f"wrote {save_figure(plot_dataset(o.dataset, overlay), out / f'{name}.png')}")
         if "se_slope_range" in o.dataset:
             print(report_text(o.dataset))

@@ -92,8 +92,7 @@ def test_warm_up_loads_the_kind_on_one_thread(name, monkeypatch):
     assert os.environ["NUMBA_NUM_THREADS"] == "1"
 
 
-@pytest.mark.parametrize("mode", ["boundary", "multifidelity"])
-def test_tracing_modes_are_refused_for_a_kind_without_a_class(mode):
+def test_multifidelity_is_refused_for_a_kind_without_a_two_valued_class():
     from pathlib import Path
 
     from pipeline.config import ConfigError
@@ -101,5 +100,7 @@ def test_tracing_modes_are_refused_for_a_kind_without_a_class(mode):
 
     scene2_study = Path(__file__).resolve().parents[1] / "studies" / "pad_width.toml"
     assert adapter_of(load_study(scene2_study).base).class_flag is None
-    with pytest.raises(ConfigError, match="scene kind 'abs' has none"):
-        load_study(scene2_study, mode=mode)
+    with pytest.raises(ConfigError, match="scene kind 'abs' has none for this mode: use mode = 'grid' or 'boundary'"):
+        load_study(scene2_study, mode="multifidelity")
+    with pytest.raises(ConfigError, match=r"mode = 'boundary'.*needs a \[boundary\] table"):
+        load_study(scene2_study, mode="boundary")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import cf_errors
 from scipy import stats
 
 from pipeline.config import ConfigError
@@ -25,9 +26,9 @@ TINY_ABS = ["numerics.nx=61", "numerics.ny=41", "numerics.refine=2", "numerics.t
             "disk.rms=0.6e-9", "contact.delta_gamma=0.0"]  # fmt: skip
 
 
-def write(folder: Path, kind_scene: str, realizations: int, axis: str) -> Path:
+def write(folder: Path, kind_scene: str, realizations: int, axis: str, head: str = "") -> Path:
     path = folder / "real.toml"
-    path.write_text(f'[study]\nname = "real"\nscene = "{kind_scene}"\nrealizations = {realizations}\n\n{axis}\n')
+    path.write_text(f'[study]\nname = "real"\nscene = "{kind_scene}"\nrealizations = {realizations}\n{head}\n{axis}\n')
     return path
 
 
@@ -77,3 +78,111 @@ def test_a_study_with_realizations_gives_means_intervals_query_and_error_bars(tm
     assert "over 3 realisations" in header and len(rows) == 2 and all(row.count(" +- ") == 2 for row in rows)
     png = save_figure(plot_dataset(ds), tmp_path / "real.png")
     assert png.stat().st_size > 10_000
+
+
+# ----------------------------------------------------------------------------- scene-2 boundary: one line per track
+
+PAD_PRELOAD_BOUNDARY = (
+    '[[axes]]\nkey = "slider.trailing_pad_width"\ndim = "pad_width"\n'
+    "start = 60.0e-6\nstop = 140.0e-6\nstep = 5.0e-6\n\n"
+    '[[axes]]\nkey = "suspension.preload"\ndim = "preload"\nvalues = [1.0e-3, 10.0e-3, 20.0e-3]\n\n'
+    '[boundary]\naxis = "slider.trailing_pad_width"\ntolerance = 5.0e-6\nstable_side = "above"\n'
+)
+
+
+def touchdown_width(preload: float, seed: int) -> float:
+    """The stand-in's rule: the pad flies from this width up, narrower it touches [m]."""
+    return 70e-6 + 3e-3 * preload + 2.5e-6 * seed
+
+
+def regime_runner(scene_dict, run_id, impacts_kept):
+    """A stand-in scene-2 run: flying (0) above the touchdown width, intermittent contact (1) within 20 um below
+    it, stuck (3) further down; the flag is all the boundary reads."""
+    width = scene_dict["slider"]["trailing_pad_width"]
+    edge = touchdown_width(scene_dict["suspension"]["preload"], scene_dict["disk"]["seed"])
+    regime = 0 if width >= edge - 1e-12 else (1 if width > edge - 20e-6 else 3)
+    return {"run_id": run_id, "status": 0, "regime": regime, "bouncing_3sigma": 1e-9 * (1 + regime),
+            "contact_fraction": 0.0 if regime == 0 else 0.1, "message": "threshold", "wall_time": 0.0}  # fmt: skip
+
+
+def test_a_scene2_boundary_is_bisected_per_track_with_the_mean_and_interval_of_the_tracks(tmp_path):
+    path = write(tmp_path, str(ROOT / "studies/scenes/chen_bogy2007.toml"), 4, PAD_PRELOAD_BOUNDARY,
+                 'figure = "regime_map"')  # fmt: skip
+    grid = load_study(path)
+    assert grid.boundary.threshold == "intermittent_contact"  # the kind's default: flying against touching
+    g = run_study(grid, tmp_path / "g.nc", workers=0, quiet=True, runner=regime_runner, ledger_dir=tmp_path / "lg")
+    b = run_study(load_study(path, mode="boundary"), tmp_path / "b.nc", workers=0, quiet=True, runner=regime_runner,
+                  ledger_dir=tmp_path / "lb")  # fmt: skip
+    gd, bd = g.dataset, open_result(tmp_path / "b.nc")
+    assert gd.attrs["study"] == bd.attrs["study"] == "real"
+    assert gd["boundary_lower"].dims == ("preload", "realization") and bd.attrs["boundary_method"] == "bisection"
+    widths = bd["pad_width"].values
+    assert len(widths) == 17 and g.computed == 17 * 3 * 4  # the grid holds the whole lattice
+    for p, preload in enumerate(bd["preload"].values):
+        for r, seed in enumerate(bd["realization"].values):
+            edge = touchdown_width(preload, seed)
+            upper = widths[widths >= edge - 1e-12].min()  # the narrowest lattice width that flies
+            assert float(bd["boundary_upper"][p, r]) == pytest.approx(upper, rel=1e-12)
+            assert float(bd["boundary_lower"][p, r]) == pytest.approx(upper - 5e-6, rel=1e-12)
+    np.testing.assert_array_equal(gd["boundary_lower"].values, bd["boundary_lower"].values)
+    np.testing.assert_array_equal(gd["boundary_upper"].values, bd["boundary_upper"].values)
+    mids = 0.5 * (bd["boundary_lower"] + bd["boundary_upper"]).values
+    for p in range(3):
+        low, high = stats.t.interval(0.95, 3, loc=mids[p].mean(), scale=stats.sem(mids[p]))
+        assert float(bd["boundary_mean"][p]) == pytest.approx(mids[p].mean(), rel=1e-14)
+        assert float(bd["boundary_ci95"][p]) == pytest.approx(0.5 * (high - low), rel=1e-12)
+    assert bd["boundary_closed"].values.tolist() == [4, 4, 4]
+    assert "flying" in bd["boundary_upper"].attrs["long_name"] and bd.attrs["boundary_threshold"] == (
+        "intermittent_contact")  # fmt: skip
+    assert b.computed < g.computed / 2, (b.computed, g.computed)
+    assert cf_errors(tmp_path / "g.nc") == [] and cf_errors(tmp_path / "b.nc") == []
+    png = save_figure(plot_dataset(gd, bd), tmp_path / "map.png")
+    import matplotlib.image
+
+    image = matplotlib.image.imread(png)
+    assert np.unique(image.reshape(-1, image.shape[-1]), axis=0).shape[0] > 10
+    assert save_figure(plot_dataset(bd), tmp_path / "b.png").stat().st_size > 10_000
+    with pytest.raises(ValueError, match="draws no overlay"):  # the sweep figure of a study without a map
+        plot_dataset(open_result(tmp_path / "g.nc").assign_attrs(figure=""), bd)
+
+
+def test_a_scene2_boundary_at_the_stuck_threshold_and_an_open_bracket(tmp_path):
+    text = PAD_PRELOAD_BOUNDARY.replace('stable_side = "above"\n', 'stable_side = "above"\nthreshold = "stuck"\n')
+    path = write(tmp_path, str(ROOT / "studies/scenes/chen_bogy2007.toml"), 2, text)
+    b = run_study(load_study(path, mode="boundary"), tmp_path / "b.nc", workers=0, quiet=True, runner=regime_runner)
+    ds = b.dataset
+    assert ds.attrs["boundary_classes"] == "below stuck (low) / stuck (high)"
+    # stuck from 20 um below the touchdown width: at 1 mN (touchdown 75.5 / 78 um) it never sticks on 60-140 um
+    assert np.isnan(ds["boundary_lower"].values[0]).all() and ds["boundary_upper"].values[0].tolist() == [60e-6] * 2
+    assert int(ds["boundary_closed"][0]) == 0 and np.isnan(float(ds["boundary_mean"][0]))
+    assert int(ds["boundary_closed"][2]) == 2 and np.isfinite(float(ds["boundary_mean"][2]))
+
+
+@pytest.mark.parametrize(("line", "error"), [
+    ('threshold = "flying"', "'flying' is not allowed (allowed: intermittent_contact, sustained_contact, stuck"),
+    ('threshold = "touching"', "'touching' is not allowed"),
+])  # fmt: skip
+def test_a_scene2_boundary_threshold_must_be_a_regime_that_starts_the_high_class(tmp_path, line, error):
+    text = PAD_PRELOAD_BOUNDARY.replace('stable_side = "above"\n', f'stable_side = "above"\n{line}\n')
+    with pytest.raises(ConfigError, match=error.replace("(", r"\(")):
+        load_study(write(tmp_path, str(ROOT / "studies/scenes/chen_bogy2007.toml"), 2, text))
+
+
+def test_a_two_valued_class_takes_no_threshold(tmp_path):
+    axes = ('[[axes]]\nkey = "contact.alpha"\ndim = "alpha"\nvalues = [0.5, 1.0]\n\n[boundary]\naxis = '
+            '"contact.alpha"\ntolerance = 0.1\nthreshold = "stable"\n')  # fmt: skip
+    with pytest.raises(ConfigError, match=r"\[boundary\] threshold.*two values"):
+        load_study(write(tmp_path, str(ROOT / "studies/scenes/benson1989.toml"), 1, axes))
+
+
+def test_the_traced_classes_of_both_kinds():
+    from pipeline.kinds import adapter_of
+
+    regime = adapter_of("abs").traced
+    flags = np.array([-1, 0, 1, 2, 3])
+    assert regime.classes(flags).tolist() == [-1, 1, 0, 0, 0]
+    assert regime.classes(flags, "sustained_contact").tolist() == [-1, 1, 1, 0, 0]
+    assert regime.classes(flags, "stuck").tolist() == [-1, 1, 1, 1, 0]
+    assert regime.names() == ("flying", "intermittent_contact or above")
+    stable = adapter_of("rails").traced
+    assert stable.classes(np.array([-1, 0, 1])).tolist() == [-1, 0, 1] and stable.names() == ("stable", "unstable")

@@ -110,7 +110,22 @@ def query(path: str | Path, where: list[str], variables: list[str] | None = None
     return text
 
 
+def _index(index) -> str:
+    """A table row's coordinates, numbers to 4 significant digits."""
+    values = index if isinstance(index, tuple) else (index,)
+    return " ".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in values)
+
+
 def boundary_table(ds: xr.Dataset) -> str:
     """The bracket per line, floats to 4 significant digits (a corner radius in metres stays readable)."""
     names = [n for n in ("boundary_lower", "boundary_upper", "boundary_runs", "boundary_monotonic") if n in ds]
-    return ds[names].to_dataframe()[names].to_string(float_format=lambda x: f"{x:.4g}")
+    text = ds[names].to_dataframe()[names].to_string(float_format=lambda x: f"{x:.4g}")
+    if "boundary_mean" in ds:  # one line per track: the mean over the tracks with its 95 % half-width
+        rows = ds[["boundary_mean", "boundary_ci95", "boundary_closed"]].to_dataframe()
+        text += (
+            f"\n\nover the {ds.sizes['realization']} tracks (mean +- 95 % half-width; NaN where a track's "
+            "bracket is open)\n"
+        )
+        text += "\n".join(f"{_index(index):>24}  {row.boundary_mean:.4g} +- {row.boundary_ci95:.2g}   "
+                          f"closed {int(row.boundary_closed)}" for index, row in rows.iterrows())  # fmt: skip
+    return text

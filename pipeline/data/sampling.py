@@ -33,6 +33,8 @@ error is resolved when that interval contains 0.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import xarray as xr
 from scipy import special
@@ -66,7 +68,8 @@ def mean_interval(values: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.nd
     """
     values = np.asarray(values, dtype=float)
     n = np.count_nonzero(np.isfinite(values), axis=axis)
-    with np.errstate(invalid="ignore", divide="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # cells without finite samples (a bisection's unprobed)
         mean = np.nanmean(values, axis=axis) if values.size else np.full(n.shape, np.nan)
         equal = (np.nanmax(values, axis=axis) == np.nanmin(values, axis=axis)) if values.size else n < 0
         sd = np.where(equal, 0.0, np.nanstd(values, axis=axis, ddof=1))

@@ -8,8 +8,12 @@ where none)), and:
 
 - ``impact_time``/``impact_corner``/``impact_impulse`` on an extra ``impact`` dimension;
 - ``boundary_lower``/``boundary_upper`` over the other axes: the bracket of the
-  stable/unstable boundary on the boundary axis, from the grid (first
-  crossing from the stable side) or from bisection (``boundary_method``).
+  class boundary on the boundary axis (the kind's :class:`pipeline.kinds.Traced`: stable/unstable, or a regime
+  below/at or above the study's threshold), from the grid (first
+  crossing from the low class's side) or from bisection (``boundary_method``); with a ``realization`` axis
+  (one line per track) also ``boundary_mean``/``boundary_ci95``, the mean of the brackets' midpoints over the
+  realisations and its 95 % half-width (NaN where a realisation's bracket is open: the boundary lies outside
+  the axis's range on that track), and ``boundary_closed``, the realisations with a closed bracket.
 
 With a ``realization`` axis (n > 1 seeds of the stochastic input per cell), over the other axes:
 
@@ -140,12 +144,39 @@ def _boundary_vars(ds: xr.Dataset, study: Study, lower: np.ndarray, upper: np.nd
     axis = study.axis(study.boundary.axis)
     other = tuple(a.dim for a in study.axes if a.dim != axis.dim)
     side = study.boundary.stable_side
-    low_name, high_name = ("stable", "unstable") if side == "below" else ("unstable", "stable")
-    ds["boundary_lower"] = var(lower, other, axis.units, f"largest {axis.dim} on the {low_name} side of the boundary")
-    ds["boundary_upper"] = var(upper, other, axis.units, f"smallest {axis.dim} on the {high_name} side of the boundary")
+    low, high = adapter_of(study.base).traced.names(study.boundary.threshold)
+    below, above = (low, high) if side == "below" else (high, low)
+    ds["boundary_lower"] = var(lower, other, axis.units, f"largest {axis.dim} on the {below} side of the boundary")
+    ds["boundary_upper"] = var(upper, other, axis.units, f"smallest {axis.dim} on the {above} side of the boundary")
     ds.attrs["boundary_axis"] = axis.dim
     ds.attrs["boundary_method"] = method
     ds.attrs["boundary_stable_side"] = side
+    ds.attrs["boundary_classes"] = f"{low} (low) / {high} (high)"
+    if study.boundary.threshold is not None:
+        ds.attrs["boundary_threshold"] = study.boundary.threshold
+    if REALIZATION in other and ds.sizes[REALIZATION] > 1:
+        rest = tuple(d for d in other if d != REALIZATION)
+        last = other.index(REALIZATION)
+        mid = 0.5 * (lower + upper)
+        closed = np.isfinite(mid)
+        mean, half, _n = mean_interval(np.moveaxis(mid, last, -1))
+        every = np.all(closed, axis=last)
+        ds["boundary_mean"] = var(
+            np.where(every, mean, np.nan),
+            rest,
+            axis.units,
+            f"mean over the realisations of the boundary's {axis.dim} (bracket midpoints)",
+        )
+        ds["boundary_ci95"] = var(
+            np.where(every, half, np.nan),
+            rest,
+            axis.units,
+            "half-width of the 95 % interval of boundary_mean (Student's t)",
+        )
+        ds["boundary_closed"] = var(
+            np.count_nonzero(closed, axis=last).astype(np.int32), rest, "1",
+            "realisations whose boundary bracket is closed (the others: outside the range)",
+        )  # fmt: skip
 
 
 def grid_boundary(stable: np.ndarray, side: str = "below") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -174,8 +205,9 @@ def grid_boundary(stable: np.ndarray, side: str = "below") -> tuple[np.ndarray, 
 def _add_grid_boundary(ds: xr.Dataset, study: Study) -> None:
     axis = study.axis(study.boundary.axis)
     other = [a.dim for a in study.axes if a.dim != axis.dim]
-    stable = ds["stable"].transpose(*other, axis.dim).values
-    lo, hi, mono = grid_boundary(stable, study.boundary.stable_side)
+    traced = adapter_of(study.base).traced
+    classes = traced.classes(ds[traced.flag].transpose(*other, axis.dim).values, study.boundary.threshold)
+    lo, hi, mono = grid_boundary(classes, study.boundary.stable_side)
     vals = np.asarray(ds[axis.dim].values, dtype=float)
     padded = np.concatenate([vals, [np.nan]])
     lower = np.where(lo >= 0, padded[lo], np.nan)

@@ -270,9 +270,16 @@ def plot_fly(ds: xr.Dataset) -> Figure:
 REGIME_COLOURS = ("#9ecae1", "#fdd49e", "#fc8d59", "#b30000")
 
 
-def plot_regime_map(ds: xr.Dataset) -> Figure:
+def plot_regime_map(ds: xr.Dataset, overlay: xr.Dataset | None = None) -> Figure:
     """Regime map over the study's first two axes: each cell coloured by its dominant regime over the
-    realisations (the share of that regime written in it), contours of the mean 3-sigma bouncing [nm] on top."""
+    realisations (the share of that regime written in it), contours of the mean 3-sigma bouncing [nm] on top.
+
+    A study with a boundary (its own, or ``overlay``: a boundary-mode study of the same axes) gets the boundary
+    drawn: the mean over the realisations of the tracks' bracket midpoints with its 95 % interval, each track's
+    midpoint as a dot (one realisation: the midpoint with its bracket).  Cells a bisection did not probe are
+    left white."""
+    if overlay is not None and overlay.attrs.get("boundary_method") != "bisection":
+        raise ValueError("the overlay must be a boundary-mode study (hdi run STUDY --mode boundary)")
     plt = pyplot()
     from matplotlib.colors import BoundaryNorm, ListedColormap
     from matplotlib.patches import Patch
@@ -290,28 +297,70 @@ def plot_regime_map(ds: xr.Dataset) -> Figure:
     ax.pcolormesh(x, y, dominant, shading="nearest", cmap=cmap, norm=BoundaryNorm(np.arange(len(labels) + 1) - 0.5,
                   cmap.N))  # fmt: skip
     sigma = ds["bouncing_3sigma_mean"].transpose(ydim, xdim).values * 1e9
-    if np.isfinite(sigma).sum() >= 4 and len(x) > 1 and len(y) > 1:
+    if np.isfinite(sigma).mean() >= 0.9 and len(x) > 1 and len(y) > 1:  # not on a bisection's sparse lattice
         low, high = np.nanpercentile(sigma, [5.0, 95.0])  # a single extreme cell does not take every level
         levels = np.linspace(low, high, 6) if high > low else 6
         lines = ax.contour(x, y, sigma, levels=levels, colors="k", linewidths=0.9)
         ax.clabel(lines, fmt="%.3g nm", fontsize=8)
     for j, yj in enumerate(y):
         for i, xi in enumerate(x):
-            if np.isfinite(share[j, i]):
+            if np.isfinite(share[j, i]) and len(x) <= 9 and len(y) <= 9:  # not on a bisection's fine lattice
                 ax.annotate(f"{share[j, i]:.2f}", (xi, yj), ha="center", va="center", fontsize=8, color="0.15")
     present = sorted({int(v) for v in dominant[np.isfinite(dominant)]})
-    ax.legend(handles=[Patch(color=REGIME_COLOURS[k], label=labels[k].replace("_", " ")) for k in present],
-              loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9,
-              title="dominant regime\n(number: its share)", title_fontsize=9)  # fmt: skip
+    handles = [Patch(color=REGIME_COLOURS[k], label=labels[k].replace("_", " ")) for k in present]
+    classes = ""
+    for source, colour in ((ds, "k"), (overlay, "tab:purple")):
+        if source is not None and "boundary_lower" in source:
+            handles += _draw_regime_boundary(ax, source, xdim, ydim, (sx, sy), colour)
+            low, high = (c.split(" (")[0].replace("_", " ") for c in source.attrs["boundary_classes"].split(" / "))
+            classes = f"\nboundary: {low} | {high}"
+    title = "dominant regime" + ("\n(number: its share)" if len(x) <= 9 and len(y) <= 9 else "")
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=9,
+              title=title, title_fontsize=9)  # fmt: skip
     for setter, dim, unit in ((ax.set_xlabel, xdim, xunit), (ax.set_ylabel, ydim, yunit)):
         setter(f"{_short_name(ds[dim], dim)} [{unit}]")
-    ax.set_xticks(x)
-    ax.set_yticks(y)
+    if len(x) <= 9:
+        ax.set_xticks(x)
+    if len(y) <= 9:
+        ax.set_yticks(y)
     n_real = ds.sizes.get("realization", 1)
     failed = int(np.count_nonzero(ds["status"].values == -1))
-    ax.set_title(f"{ds.attrs.get('title', '')}\n{n_real} realisations per cell; contours: mean 3$\\sigma$ bouncing "
-                 f"[nm]" + (f"; {failed} failed runs" if failed else ""), fontsize=10)  # fmt: skip
+    ran = int(np.count_nonzero(ds["status"].values != -2))
+    what = (f"bisection, {ran} runs; {n_real} tracks" if ds.attrs.get("boundary_method") == "bisection" else
+            f"{n_real} realisations per cell; contours: mean 3$\\sigma$ bouncing [nm]")  # fmt: skip
+    ax.set_title(f"{ds.attrs.get('title', '')}\n{what}" + (f"; {failed} failed runs" if failed else "") + classes,
+                 fontsize=10)  # fmt: skip
     return fig
+
+
+def _draw_regime_boundary(ax, ds: xr.Dataset, xdim: str, ydim: str, scales: tuple[float, float], colour: str):
+    """Draw a study's class boundary on a regime map; the legend handles it adds."""
+    from matplotlib.lines import Line2D
+
+    bdim = ds.attrs["boundary_axis"]
+    odim = ydim if bdim == xdim else xdim
+    sb, so = scales if bdim == xdim else scales[::-1]
+    across = ds[odim].values * so
+    label = "boundary (" + ds.attrs["boundary_method"] + ")"
+    if "boundary_mean" in ds:
+        mean = ds["boundary_mean"].transpose(odim).values * sb
+        half = ds["boundary_ci95"].transpose(odim).values * sb
+        mids = 0.5 * (ds["boundary_lower"] + ds["boundary_upper"]).transpose(odim, "realization").values * sb
+        dots = np.broadcast_to(across[:, None], mids.shape)
+        along, spread = (mids, dots) if bdim == xdim else (dots, mids)
+        ax.plot(along.ravel(), spread.ravel(), ".", color=colour, ms=3, alpha=0.6)
+        points, err = mean, half
+        label += f":\nmean of {ds.sizes['realization']} tracks, 95 %"
+    else:
+        lower = ds["boundary_lower"].transpose(odim).values * sb
+        upper = ds["boundary_upper"].transpose(odim).values * sb
+        points = 0.5 * (lower + upper)
+        err = np.array([points - lower, upper - points])
+        label += ": bracket"
+    xy = (points, across) if bdim == xdim else (across, points)
+    key = "xerr" if bdim == xdim else "yerr"
+    ax.errorbar(*xy, **{key: err}, fmt="D-", ms=4, color=colour, capsize=3, lw=1.2)
+    return [Line2D([], [], marker="D", ms=4, color=colour, label=label)]
 
 
 def plot_statistics(ds: xr.Dataset) -> Figure:

@@ -1,10 +1,14 @@
-"""Trace the stable/unstable boundary by bisection instead of computing the full grid.
+"""Trace a class boundary by bisection instead of computing the full grid.
 
+The class is the kind's :class:`pipeline.kinds.Traced`: stable against unstable for kind "rails", a regime
+below the study's ``threshold`` against at or above it for kind "abs" (flying against touching by default).
 For every combination of the other axes (a *line*), the bisected axis
 (restitution in Figure 17) is searched on a lattice of spacing ``tolerance``
 over its range (or on the axis's own values, ``lattice = "axis"``, e.g. the
-log-spaced corner radii of ``studies/fig17_thornton.toml``), assuming one crossing: stable on ``stable_side`` of the
-boundary, unstable on the other.  Lattice indices below the boundary are
+log-spaced corner radii of ``studies/fig17_thornton.toml``), assuming one crossing: the low class (stable) on
+``stable_side`` of the boundary, the high class on the other.  A study with realisations of a stochastic input
+has a line per realisation (the realisation is one of the other axes): each track's own boundary, whose mean and
+interval over the realisations the dataset reports.  Lattice indices below the boundary are
 called *low*.  With L the probed low indices and H the probed high ones,
 
     hi = min(H)   (n if none),    lo = max{i in L : i < hi}   (-1 if none),
@@ -32,6 +36,7 @@ import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
+from pipeline.kinds import adapter_of
 from pipeline.study.spec import Case, Study, lattice, make_case
 
 
@@ -95,6 +100,8 @@ class BisectionPlanner:
         self.axis = study.axis(study.boundary.axis)
         self.values = lattice(study)
         self.below = study.boundary.stable_side == "below"
+        self.traced = adapter_of(study.base).traced
+        self.threshold = study.boundary.threshold
         self.others = [a for a in study.axes if a.key != self.axis.key]
         n = len(self.values)
         chain_axis, rest = (self.others[0], self.others[1:]) if self.others else (None, [])
@@ -145,11 +152,12 @@ class BisectionPlanner:
     def record(self, case: Case, record: dict[str, Any]) -> None:
         line, i = self._cases[case.run_id]
         line.inflight.discard(i)
-        stable = record.get("stable")
-        if record.get("status", -1) == -1 or stable is None:
+        flag = record.get(self.traced.flag)
+        low = -1 if flag is None else int(self.traced.classes(flag, self.threshold))
+        if record.get("status", -1) == -1 or low == -1:
             line.side[i] = None
         else:
-            line.side[i] = bool(stable) == self.below
+            line.side[i] = bool(low) == self.below
 
     def expected(self) -> int | None:
         return None

@@ -11,9 +11,12 @@ A study file (TOML) holds
     [[axes]]   key (a scene key such as "contact.mu"), dim (dataset dimension name),
                values = [...]  or  start, stop, step  (stop included)
     [outputs]  variables (a subset of the kind's outputs, pipeline.classify), impacts (first impacts kept per run)
-    [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above",
+    [boundary] axis (one of the axes' keys), tolerance, stable_side = "below" | "above" (the side of the axis
+               where the low class lies: stable for kind "rails", a regime below ``threshold`` for kind "abs"),
                lattice = "uniform" (the axis's range at spacing ``tolerance``, the default) | "axis" (the axis's
-               own values, increasing, e.g. log-spaced; no tolerance)
+               own values, increasing, e.g. log-spaced; no tolerance),
+               threshold (kinds with a multi-level class, :class:`pipeline.kinds.Traced`: the level where the
+               high class starts, e.g. "intermittent_contact" for kind "abs": flying against touching)
 
 Everything is checked when the file is loaded, before any run: unknown
 sections or keys, an axis over a key the scene does not have, an empty or
@@ -49,7 +52,7 @@ ALLOWED = {
     "set": None,  # any scene key, checked by apply_overrides
     "axes": {"key", "dim", "values", "start", "stop", "step"},
     "outputs": {"variables", "impacts"},
-    "boundary": {"axis", "tolerance", "stable_side", "lattice"},
+    "boundary": {"axis", "tolerance", "stable_side", "lattice", "threshold"},
 }
 ROUND = 12  # decimals: axis values are rounded so that the same value always hashes the same
 #: Dimension of a study's realisations of a stochastic input (one seed each, see SceneKind.seed_key).
@@ -80,6 +83,7 @@ class Boundary:
     tolerance: float | None  # lattice spacing (None: the lattice is the axis's own values)
     stable_side: str = "below"
     lattice: str = "uniform"
+    threshold: str | None = None  # level where the high class starts (a kind with a multi-level class)
 
 
 @dataclass(frozen=True)
@@ -323,15 +327,15 @@ def load_study(
 
     adapter = adapter_of(base)
     variables, impacts = _parse_outputs(path, data.get("outputs", {}), adapter)
-    traced = [name for name in ("boundary", "multifidelity") if name in data or mode == name]
-    if traced and adapter.class_flag is None:
-        raise _study_error(
-            path,
-            f"[{traced[0]}]" if traced[0] in data else f"mode = {mode!r}",
-            f"needs runs with a class to trace, and scene kind {adapter.name!r} has none (its runs are measured, "
-            "not classified): use mode = 'grid'",
-        )
-    boundary = _parse_boundary(path, data["boundary"], axes) if "boundary" in data else None
+    for traced, has in (("boundary", adapter.traced), ("multifidelity", adapter.class_flag)):
+        if (traced in data or mode == traced) and has is None:
+            raise _study_error(
+                path,
+                f"[{traced}]" if traced in data else f"mode = {mode!r}",
+                f"needs runs with a class to trace, and scene kind {adapter.name!r} has none for this mode: use "
+                "mode = 'grid'" + (" or 'boundary'" if adapter.traced is not None else ""),
+            )
+    boundary = _parse_boundary(path, data["boundary"], axes, adapter.traced) if "boundary" in data else None
     if mode == "boundary" and boundary is None:
         raise _study_error(path, "mode = 'boundary'", "needs a [boundary] table (axis, tolerance)")
     cheap, cheap_axes = _parse_multifidelity(path, data["multifidelity"], axes, base) if "multifidelity" in data else (
@@ -436,9 +440,20 @@ def _parse_outputs(path: Path, outputs: Any, adapter: Any) -> tuple[list[str], i
     return variables, impacts
 
 
-def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...]) -> Boundary:
-    """[boundary]: the axis to bisect, its lattice (tolerance, or the axis's own values) and the stable side."""
+def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...], traced: Any) -> Boundary:
+    """[boundary]: the axis to bisect, its lattice (tolerance, or the axis's own values), the stable side and the
+    class's threshold (``traced``: the kind's :class:`pipeline.kinds.Traced`)."""
     _check_keys(path, "[boundary]", b, ALLOWED["boundary"])
+    threshold = b.get("threshold")
+    if threshold is not None and not traced.thresholds:
+        raise _study_error(path, "[boundary] threshold", f"{threshold!r}: the class of this kind ({traced.flag}) "
+                           "has two values, there is no threshold to choose: remove it")  # fmt: skip
+    if traced.thresholds:
+        threshold = traced.default_threshold if threshold is None else threshold
+        if threshold not in traced.thresholds:
+            allowed = ", ".join(traced.thresholds)
+            raise _study_error(path, "[boundary] threshold", f"{threshold!r} is not allowed (allowed: {allowed}: "
+                               f"the {traced.flag} where the high class starts)")  # fmt: skip
     axis_key = b.get("axis")
     if axis_key not in {a.key for a in axes}:
         raise _study_error(
@@ -461,13 +476,13 @@ def _parse_boundary(path: Path, b: Any, axes: tuple[Axis, ...]) -> Boundary:
         if any(upper <= lower for lower, upper in itertools.pairwise(values)):
             raise _study_error(path, "[boundary] lattice", f"= 'axis' needs the values of {axis_key!r} in "
                                f"increasing order ({list(values)})")  # fmt: skip
-        return Boundary(axis_key, None, side, kind)
+        return Boundary(axis_key, None, side, kind, threshold)
     tol = b.get("tolerance")
     if not isinstance(tol, int | float) or isinstance(tol, bool) or not 0 < tol <= max(values) - min(values):
         raise _study_error(
             path, "[boundary] tolerance", f"{tol!r} must be a number in (0, {max(values) - min(values):g}]"
         )
-    return Boundary(axis_key, float(tol), side)
+    return Boundary(axis_key, float(tol), side, threshold=threshold)
 
 
 def _parse_multifidelity(
