@@ -97,6 +97,12 @@ def plot_study(ds: xr.Dataset) -> Figure:
         if names:
             ax.set_xticks(x, [n.replace("_", " ") for n in names])
             ax.set_xlim(x[0] - 0.5, x[-1] + 0.5)
+    force = np.concatenate([line.get_ydata() for line in axes[1].get_lines()])
+    force = force[np.isfinite(force) & (force > 0.0)]
+    if force.size and force.max() > 100.0 * force.min():  # forces over decades: a log scale shows all of them
+        axes[1].set_yscale("symlog", linthresh=10.0 ** np.floor(np.log10(max(force.min(), 1e-4 * force.max()))))
+        axes[1].set_ylabel("mean contact force [mN], log scale")
+        axes[1].set_ylim(bottom=0.0)
     if rest:
         axes[1].legend(fontsize=8, frameon=False)
     failed = int(np.count_nonzero(ds["status"].values == -1))
