@@ -194,6 +194,13 @@ ABS_RUN_ONLY_OUTPUTS: dict[str, Output] = {
 
 #: Time series of an "abs" run that a study keeps (as histories on a ``time`` dimension).
 ABS_SERIES_KEPT = ("flying_height", "contact_force")
+#: Amplitude spectra of an "abs" run after settling that a study keeps (on a ``frequency`` dimension):
+#: name -> (units, long name).  :func:`solver.abs.integrate.spectrum` of the signal, as in a run's file.
+ABS_SPECTRA_KEPT = {
+    "flying_height": ("m", "amplitude spectrum of the flying height after settling"),
+    "pitch": ("rad", "amplitude spectrum of the pitch after settling"),
+    "roll": ("rad", "amplitude spectrum of the roll after settling"),
+}
 
 
 def rails_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
@@ -237,4 +244,13 @@ def abs_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
         "steady_contact_force": steady.surface.contact,
         "steady_note": steady.note,
         "series": {"time": result.t.tolist(), **{k: result.series[k].tolist() for k in ABS_SERIES_KEPT}},
+        "spectra": _abs_spectra(scene, result),
     }
+
+
+def _abs_spectra(scene: Any, result: Any) -> dict[str, list[float]]:
+    """The kept spectra of a run after settling, with their ``frequency`` [Hz] (as in its run file)."""
+    from solver.abs.integrate import settled_spectra
+
+    freq, spectra = settled_spectra(result, scene)
+    return {"frequency": freq.tolist(), **{name: spectra[name].tolist() for name in ABS_SPECTRA_KEPT}}

@@ -7,6 +7,7 @@ kind (parameters, fly, simulate, warm-up) is :class:`solver.kind.SceneKind` in :
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -79,6 +80,8 @@ class Adapter:
     ``stochastic(scene)`` is False where the kind's seed has no effect on the scene (a smooth disk): a study runs
     such a cell once and gives that record to every realisation (the interval of its mean is then 0).
     ``figures`` maps a product ("fly", "run", "study") or a study's ``figure`` name to its figure.
+    ``spectra_kept`` names the amplitude spectra a run's record holds (``record["spectra"]``, with its
+    ``frequency``), kept in a study as ``<name>_spectrum`` on a ``frequency`` dimension.
     ``modes(scene, steady)`` gives the modes of the slider on its air bearing about steady flight as report
     lines and dataset variables (None: the kind has no modal analysis; ``hdi fly --modes`` refuses it).
     """
@@ -103,6 +106,7 @@ class Adapter:
     bench: Callable[[Any], int] | None
     series_kept: Mapping[str, tuple[str, str]]
     traced: Traced | None = None
+    spectra_kept: Mapping[str, tuple[str, str]] = dataclasses.field(default_factory=dict)
     modes: Callable[[Any, Any], tuple[list[str], dict[str, xr.Variable]]] | None = None
 
     @property
@@ -157,6 +161,7 @@ def _adapters() -> dict[str, Adapter]:
     from .classify import (
         ABS_OUTPUTS,
         ABS_SERIES_KEPT,
+        ABS_SPECTRA_KEPT,
         RAILS_OUTPUTS,
         RAILS_RESTITUTION_OUTPUTS,
         REGIMES,
@@ -224,6 +229,7 @@ def _adapters() -> dict[str, Adapter]:
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},
         traced=Traced("regime", REGIMES, REGIMES[1:], "intermittent_contact"),
+        spectra_kept=ABS_SPECTRA_KEPT,
         modes=data_abs.modes,
     )
     return {a.name: a for a in (rails, abs_)}

@@ -599,6 +599,11 @@ def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
         assert np.isfinite(ds["bouncing_3sigma"].values).all() and (ds["mean_contact_force"].values >= 0).all()
         assert ds["flying_height"].dims[-1] == "time"
         np.testing.assert_allclose(ds["regime_fraction"].sum("regimes").values, 1.0, rtol=1e-12)
+        # each run's flying-height, pitch and roll spectra are kept, and their peaks are the run's peak outputs
+        for name, peak in (("flying_height", "fh"), ("pitch", "pitch"), ("roll", "roll")):
+            amp = ds[f"{name}_spectrum"].transpose(*study.dims, "frequency").values
+            found = ds["frequency"].values[1:][np.argmax(amp[..., 1:], axis=-1)]
+            np.testing.assert_array_equal(found, ds[f"{peak}_peak_frequency"].transpose(*study.dims).values)
         from pipeline.figures.common import save_figure
         from pipeline.kinds import plot_dataset
 

@@ -7,10 +7,17 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from pipeline.classify import ABS_OUTPUTS, ABS_RUN_ONLY_OUTPUTS, REGIME_FLAGS, STATUS_FLAGS, abs_regime
+from pipeline.classify import (
+    ABS_OUTPUTS,
+    ABS_RUN_ONLY_OUTPUTS,
+    ABS_SPECTRA_KEPT,
+    REGIME_FLAGS,
+    STATUS_FLAGS,
+    abs_regime,
+)
 from pipeline.data.netcdf import product_attrs, var
 from solver.abs.face import region_loads
-from solver.abs.integrate import AbsResult, spectrum, summarize
+from solver.abs.integrate import AbsResult, settled_spectra, summarize
 from solver.abs.params import SERIES, AbsScene
 from solver.abs.steady import AbsSteady
 
@@ -70,16 +77,9 @@ def run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
     }
     for name, (units, long_name) in SERIES.items():
         data[name] = var(result.series[name], ("time",), units, long_name)
-    keep = result.t >= scene.numerics.settle_time - 1e-15
-    freq = None
-    for name, signal, units in (
-        ("flying_height", result.series["flying_height"], "m"),
-        ("pitch", result.q[:, 1], "rad"),
-        ("roll", result.q[:, 2], "rad"),
-    ):
-        f, amp = spectrum(result.t[keep], signal[keep])
-        freq = f
-        data[f"{name}_spectrum"] = var(amp, ("frequency",), units, f"amplitude spectrum of {name} after settling")
+    freq, spectra = settled_spectra(result, scene)
+    for name, (units, long_name) in ABS_SPECTRA_KEPT.items():
+        data[f"{name}_spectrum"] = var(spectra[name], ("frequency",), units, long_name)
     outputs = {**ABS_OUTPUTS, **ABS_RUN_ONLY_OUTPUTS}
     for key, value in summary.items():
         data[key] = var(value, (), outputs[key].units, outputs[key].long_name)

@@ -110,7 +110,20 @@ def study_dataset(
                     arr[index][: min(nt, len(values_t))] = values_t[:nt]
             data[name] = var(arr, (*dims, "time"), units, long_name)
 
+    frequency = next((r["spectra"]["frequency"] for _c, r in cells.values() if r.get("spectra")), None)
+    if frequency is not None and adapter.spectra_kept:
+        nf = len(frequency)
+        for name, (units, long_name) in adapter.spectra_kept.items():
+            arr = np.full((*shape, nf), np.nan)
+            for index, (_case, record) in cells.items():
+                amp = (record.get("spectra") or {}).get(name)
+                if amp is not None and len(amp) == nf:  # a run of another length (t_end) is left out
+                    arr[index] = amp
+            data[f"{name}_spectrum"] = var(arr, (*dims, "frequency"), units, long_name)
+
     coords: dict[str, Any] = {a.dim: _coord(a, v) for a, v in zip(study.axes, values, strict=True)}
+    if frequency is not None and adapter.spectra_kept:
+        coords["frequency"] = ("frequency", np.asarray(frequency), {"units": "Hz", "long_name": "frequency"})
     if series_time is not None:
         coords["time"] = ("time", np.asarray(series_time), {"units": "s", "long_name": "time since steady flight"})
     if k:

@@ -517,6 +517,17 @@ def spectrum(t: np.ndarray, signal: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return np.fft.rfftfreq(n, dt), amp
 
 
+def settled_spectra(result: AbsResult, scene: AbsScene) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Amplitude spectra of the flying height, pitch and roll after the settling time: frequencies [Hz] and
+    {name: amplitudes [m or rad]} (:func:`spectrum`)."""
+    keep = result.t >= scene.numerics.settle_time - SETTLE_SLACK
+    signals = {"flying_height": result.series["flying_height"], "pitch": result.q[:, 1], "roll": result.q[:, 2]}
+    freq, out = np.zeros(0), {}
+    for name, signal in signals.items():
+        freq, out[name] = spectrum(result.t[keep], signal[keep])
+    return freq, out
+
+
 def summarize(result: AbsResult, scene: AbsScene) -> dict[str, float]:
     """Bouncing 3-sigma, contact measures and spectral peaks after the settling time."""
     num = scene.numerics
