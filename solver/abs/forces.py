@@ -24,7 +24,12 @@ ELASTIC_TOLERANCE = 1e-12
 
 @dataclass
 class SurfaceForces:
-    """Surface forces of one evaluation: generalized force (3,), its Jacobian (3, 3), and totals [N]."""
+    """Surface forces of one evaluation: generalized force (3,), its Jacobian (3, 3), and totals [N].
+
+    With contact damping (:meth:`SurfaceModel.forces_on` given the velocities) ``f``, ``contact`` and
+    ``friction`` include the damping's force and ``damping`` is its matrix -d f / d v (3, 3); ``dfdq`` is the
+    undamped forces' Jacobian.
+    """
 
     f: np.ndarray
     dfdq: np.ndarray
@@ -32,6 +37,7 @@ class SurfaceForces:
     adhesion: float
     friction: float
     cells: int
+    damping: np.ndarray | None = None
 
 
 @dataclass
@@ -127,15 +133,26 @@ class SurfaceModel:
             self.area[near],
         )
 
-    def forces_on(self, cells: Candidates, q: np.ndarray) -> SurfaceForces:
-        """Surface forces at attitude q from the candidate cells only."""
+    def forces_on(self, cells: Candidates, q: np.ndarray, damping: tuple | None = None) -> SurfaceForces:
+        """Surface forces at attitude q from the candidate cells only.
+
+        ``damping`` = (zeta, M^-1, v, disk rate at the cells) adds the elastic law's contact damping
+        (:meth:`_elastic_damping`; the Greenwood-Williamson law's is in :func:`solver.kernels.newmark.newton_step`).
+        """
         if self.law == "none":
             return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
-        return self._on(cells.index, cells.base + q @ cells.b, cells.sigma, cells.b)
+        return self._on(cells.index, cells.base + q @ cells.b, cells.sigma, cells.b, damping)
 
-    def _on(self, near: np.ndarray, dn: np.ndarray, sn: np.ndarray, b: np.ndarray | None = None) -> SurfaceForces:
+    def _on(
+        self,
+        near: np.ndarray,
+        dn: np.ndarray,
+        sn: np.ndarray,
+        b: np.ndarray | None = None,
+        damping: tuple | None = None,
+    ) -> SurfaceForces:
         if near.size == 0:
-            return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
+            return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0, np.zeros((3, 3)))
         dn, sn = np.ascontiguousarray(dn), np.ascontiguousarray(sn)
         out = np.empty((4, near.size))
         ksurf.surface_pressures(dn, sn, self.eps, self.gw_coef, self.adh_coef, self.adhesion_law, self.summit_coef, out)
@@ -144,17 +161,53 @@ class SurfaceModel:
             pc, dpc_matrix = self._elastic_pressure(near, dn, sn, pc)
         area = self.area[near]
         b = self.b[:, near] if b is None else b
-        fc = pc * area
-        fa = pa * area
-        f = b @ (fc + fa) + self.mu * fc.sum() * self.friction_arm
         if self.law == "elastic":
             dfdq = (b * (dpa * area)) @ b.T
             dfdq += (b * area) @ dpc_matrix @ b.T + self.mu * np.outer(self.friction_arm, area @ dpc_matrix @ b.T)
         else:
             w = dpc * area
             dfdq = (b * (w + dpa * area)) @ b.T + self.mu * np.outer(self.friction_arm, b @ w)
+        c_d = None
+        if damping is not None and self.law == "elastic":
+            pd, c_d = self._elastic_damping(pc, dpc_matrix, area, b, damping)
+            pc = pc + pd
+        fc = pc * area
+        fa = pa * area
+        f = b @ (fc + fa) + self.mu * fc.sum() * self.friction_arm
         in_reach = int(np.count_nonzero(dn < self.reach + REACH_SIGMAS * sn))
-        return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach)
+        return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach, c_d)
+
+    def _elastic_damping(
+        self, pc: np.ndarray, dpc: np.ndarray, area: np.ndarray, b: np.ndarray, damping: tuple
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The elastic law's contact damping: pressures p_d on the cells and the matrix -d f_d / d v (3, 3).
+
+        The Greenwood-Williamson law's damping (:func:`solver.kernels.surface.contact_damping`) with the cells'
+        coupled stiffness: the cells' forces have the stiffness k_ij = -A_i dp_i/dd_j, the face's contact
+        stiffness is K_c = B k B^T, and the damping is stiffness-proportional,
+
+            p_d = (2 zeta / omega_c) (dp/dd) r,   omega_c^2 = trace(M^-1 K_c),
+
+        with r_j = b_j . v - (disk rate)_j the cells' spacing rates, so that a contact on one patch has the
+        damping ratio zeta exactly and a contact spread over the face damps its contact mode j with
+        zeta omega_j / omega_c (on a diagonal k this is the Greenwood-Williamson law's definition).  A contact
+        cannot pull: where p_c + p_d < 0, p_d = -p_c (the cell's contact pressure is zero).  The force is
+        f_d = sum_i A_i p_d,i l_i (l_i = b_i + mu arm: friction acts on the damped normal force too) and
+        -d f_d / d v = -(2 zeta / omega_c) sum_{i free} A_i l_i (dp/dd)_i,: B^T.
+        """
+        zeta, m_inv, v, disk_rate = damping
+        k_face = -(b * area) @ dpc @ b.T  # K_c = B k B^T
+        omega2 = float(np.trace(m_inv @ k_face))
+        if zeta == 0.0 or omega2 <= 0.0:
+            return np.zeros(pc.size), np.zeros((3, 3))
+        scale = 2.0 * zeta / math.sqrt(omega2)
+        rate = v @ b - disk_rate
+        pd = scale * (dpc @ rate)
+        free = pc + pd >= 0.0
+        pd = np.where(free, pd, -pc)
+        lever = b + self.mu * self.friction_arm[:, None]
+        c_d = -scale * (lever[:, free] * area[free]) @ dpc[free] @ b.T
+        return pd, c_d
 
     def _elastic_pressure(
         self, near: np.ndarray, d: np.ndarray, sigma: np.ndarray, rigid: np.ndarray

@@ -330,9 +330,6 @@ class AbsStepper:
         None when it did not converge in ``numerics.newton_max_iter`` iterations (``self.residual`` holds the
         last weighted residual).
         """
-        if not self.newton_kernel:
-            return self._newton_python(h, cells, a_new, f_path, q_path, f_old)
-        q1, v1, f_s, dfdq = np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
         if self.damping_ratio > 0.0:
             # The resolved disk's rate at the candidate cells over this step (the contact damping's reference).
             index = cells.index
@@ -340,6 +337,9 @@ class AbsStepper:
             disk_rate = (disk_end - self.zd.ravel()[index]) / h
         else:
             disk_rate = np.zeros(0)
+        if not self.newton_kernel:
+            return self._newton_python(h, cells, a_new, f_path, q_path, f_old, disk_rate)
+        q1, v1, f_s, dfdq = np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
         a_new = a_new.copy()
         iterations, self.residual, converged, contact, adhesion, in_reach = knewmark.newton_step(
             a_new,
@@ -363,9 +363,17 @@ class AbsStepper:
         return a_new, q1, v1, sf
 
     def _newton_python(
-        self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray, f_old: np.ndarray
+        self,
+        h: float,
+        cells: Candidates,
+        a_new: np.ndarray,
+        f_path: np.ndarray,
+        q_path: np.ndarray,
+        f_old: np.ndarray,
+        disk_rate: np.ndarray,
     ):
-        """:meth:`_newton` in Python, on the surface model's forces (any contact law)."""
+        """:meth:`_newton` in Python, on the surface model's forces (any contact law; the elastic law's damping
+        with its matrix in the iteration matrix, its attitude derivative left out)."""
         surface = self.surface
         M, C, K = self.M, self.C, self.K
         alpha_m, alpha_f, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
@@ -376,7 +384,8 @@ class AbsStepper:
         def newmark(a_trial: np.ndarray):
             q1 = q + h * v + h * h * ((0.5 - beta) * a + beta * a_trial)
             v1 = v + h * ((1.0 - gamma) * a + gamma * a_trial)
-            sf = surface.forces_on(cells, q1)
+            damping = (self.damping_ratio, self.m_inv, v1, disk_rate) if self.damping_ratio > 0.0 else None
+            sf = surface.forces_on(cells, q1, damping)
             f_air = f_path + film_K @ (q1 - q_path)
             G = (
                 M @ ((1.0 - alpha_m) * a_trial + alpha_m * a)
@@ -397,7 +406,8 @@ class AbsStepper:
             self.newton += 1
             if norm < tol or norm <= round_off(sf):
                 break  # converged, absolutely or to round-off of the forces
-            Jn = (1.0 - alpha_m) * M + (1.0 - alpha_f) * (gamma * h * C + beta * h * h * (K - sf.dfdq - film_K))
+            C_total = C if sf.damping is None else C + sf.damping
+            Jn = (1.0 - alpha_m) * M + (1.0 - alpha_f) * (gamma * h * C_total + beta * h * h * (K - sf.dfdq - film_K))
             step_a = np.linalg.solve(Jn, G)
             lam = 1.0
             for _ in range(MAX_BACKTRACKS):

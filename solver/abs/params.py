@@ -278,8 +278,8 @@ class SurfaceContact(Section):
         0.0,
         "1",
         "contact damping ratio (of a contact on one patch: every contact cell is a Kelvin-Voigt element with a "
-        "coefficient proportional to its Greenwood-Williamson stiffness; 0: none; measured head-disk contacts: a few "
-        "percent)",
+        "coefficient proportional to its stiffness, Greenwood-Williamson or elastic; 0: none; measured head-disk "
+        "contacts: a few percent)",
         symbol="zeta_c",
         lo=0.0,
         hi=1.0,
@@ -454,11 +454,10 @@ class AbsScene:
     kind = "abs"
 
     def __post_init__(self) -> None:
-        if self.contact.damping_ratio > 0.0 and self.models.contact != "greenwood_williamson":
+        if self.contact.damping_ratio > 0.0 and self.models.contact == "none":
             raise ParameterError(
                 f"contact.damping_ratio = {self.contact.damping_ratio!r} is not allowed with models.contact = "
-                f"{self.models.contact!r}: the contact damping is defined on the greenwood_williamson law only "
-                "(set it to 0)"
+                "'none': there is no contact to damp (set it to 0, or choose greenwood_williamson or elastic)"
             )
         lengths = [f.name for f in dataclasses.fields(AbsSlider) if f.metadata.get("units") == "m"]
         for k, region in enumerate(self.abs.regions):
