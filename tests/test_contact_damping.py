@@ -94,14 +94,17 @@ def clamped_cells(offset, b, area, v, rate, zeta, q=(0.0, 0.0, 0.0)):
 VELOCITIES = {"approaching": np.array([-1e-3, 0.2, 0.1]), "mixed": np.array([0.05, 20.0, 0.1])}
 
 
+def twelve_cells(motion: str):
+    """Twelve smooth cells in contact, their disk rates and the face's velocities of ``motion``."""
+    return (*cells(12, 1), np.random.default_rng(2).uniform(-1e-3, 1e-3, 12), VELOCITIES[motion])
+
+
 @pytest.mark.jitless
 @pytest.mark.parametrize("mu", [0.0, 0.4])
 @pytest.mark.parametrize("motion", list(VELOCITIES))
 def test_damping_matrix_is_minus_the_velocity_derivative(mu, motion):
     """The matrix returned with the force is -df/dv, with the friction of the damping force's normal part."""
-    offset, sigma, b, area = cells(12, 1)
-    rate = np.random.default_rng(2).uniform(-1e-3, 1e-3, 12)
-    v = VELOCITIES[motion]
+    offset, sigma, b, area, rate, v = twelve_cells(motion)
     clamped = clamped_cells(offset, b, area, v, rate, 0.07)
     assert clamped == 0 if motion == "approaching" else 0 < clamped < 12
     _, f0, C = damping(offset, sigma, b, area, v, rate, 0.07, mu)
@@ -153,14 +156,11 @@ def test_modal_damping_ratios_of_a_spread_contact():
     assert zeta / math.sqrt(3.0) <= ratios.max() <= zeta
 
 
-def damped_hertz_rebound(m: float, stiffness: float, zeta_z: float, v0: float) -> float:
-    """Rebound speed of m x'' = max(K delta^(3/2) - 2 zeta_z sqrt(k m) x', 0), k = 3/2 K delta^(1/2), from x' = -v0."""
+def rebound(m: float, force, v0: float) -> float:
+    """Rebound speed of m x'' = force(-x, x') from x = 0, x' = -v0 (x: the spacing above first touch)."""
 
     def rhs(_, y):
-        delta = max(-y[0], 0.0)
-        k = 1.5 * stiffness * math.sqrt(delta)
-        force = max(stiffness * delta**1.5 - 2.0 * zeta_z * math.sqrt(k * m) * y[1], 0.0)  # a contact cannot pull
-        return [y[1], force / m]
+        return [y[1], force(max(-y[0], 0.0), y[1]) / m]
 
     def leaves(_, y):
         return y[0]
@@ -168,6 +168,16 @@ def damped_hertz_rebound(m: float, stiffness: float, zeta_z: float, v0: float) -
     leaves.terminal, leaves.direction = True, 1.0
     sol = solve_ivp(rhs, (0.0, 1e-4), [0.0, -v0], events=leaves, rtol=1e-11, atol=1e-20, first_step=1e-12)
     return float(sol.y_events[0][0][1])
+
+
+def damped_hertz_rebound(m: float, stiffness: float, zeta_z: float, v0: float) -> float:
+    """Rebound speed of m x'' = max(K delta^(3/2) - 2 zeta_z sqrt(k m) x', 0), k = 3/2 K delta^(1/2), from x' = -v0."""
+
+    def force(delta, rate):
+        k = 1.5 * stiffness * math.sqrt(delta)
+        return max(stiffness * delta**1.5 - 2.0 * zeta_z * math.sqrt(k * m) * rate, 0.0)  # a contact cannot pull
+
+    return rebound(m, force, v0)
 
 
 def test_flat_landing_is_the_damped_hertz_impact():
@@ -236,9 +246,7 @@ def elastic_drop(dt: float, zeta: float, v0: float = 1e-3, mu: float = 0.0) -> A
 @pytest.mark.parametrize("motion", list(VELOCITIES))
 def test_elastic_damping_on_uncoupled_cells_is_the_greenwood_williamson_law(mu, motion):
     """With a diagonal stiffness (no elastic coupling) the elastic law's damping is the GW kernel's, clamps and all."""
-    offset, sigma, b, area = cells(12, 1)
-    rate = np.random.default_rng(2).uniform(-1e-3, 1e-3, 12)
-    v = VELOCITIES[motion]
+    offset, sigma, b, area, rate, v = twelve_cells(motion)
     pc, dpc = np.vectorize(lambda d: ksurf.contact_pressure(d, 0.0, EPS, GW_COEF))(offset)
     surface = SurfaceModel(elastic_drop(0.05e-6, 0.07, mu=mu), abs_grid(elastic_drop(0.05e-6, 0.07)))
     surface.friction_arm = np.array([0.0, -0.23e-3, 0.0])
@@ -275,17 +283,9 @@ def test_elastic_damping_matrix_is_minus_the_velocity_derivative(motion):
 
 
 def damped_linear_rebound(m: float, k: float, c: float, v0: float) -> float:
-    """Rebound speed of m x'' = max(-k x - c x', 0) from x = 0, x' = -v0 (a contact cannot pull)."""
-
-    def rhs(_, y):
-        return [y[1], max(-k * y[0] - c * y[1], 0.0) / m if y[0] < 0.0 else 0.0]
-
-    def leaves(_, y):
-        return y[0]
-
-    leaves.terminal, leaves.direction = True, 1.0
-    sol = solve_ivp(rhs, (0.0, 1e-4), [0.0, -v0], events=leaves, rtol=1e-11, atol=1e-20, first_step=1e-12)
-    return float(sol.y_events[0][0][1])
+    """Rebound speed of m x'' = max(k delta - c x', 0) (delta = -x in contact, no force outside; a contact cannot
+    pull) from x' = -v0."""
+    return rebound(m, lambda delta, rate: max(k * delta - c * rate, 0.0) if delta > 0.0 else 0.0, v0)
 
 
 def test_flat_elastic_landing_is_the_damped_linear_impact():
