@@ -4,7 +4,8 @@ Each argument is a file prefix of the four study files PREFIXpad_width.nc, PREFI
 PREFIXroughness_adhesion.nc and PREFIXfriction.nc; a missing file leaves its findings out:
 
     python bench/scene2_findings.py results/mtp_
-    python bench/scene2_findings.py results/mtp_ results/robustness_zeta0_mtp_ results/robustness_summits_berkeley_mtp_ \
+    python bench/scene2_findings.py results/mtp_ results/robustness_zeta0_mtp_ \
+        results/robustness_summits_berkeley_mtp_ \
         results/robustness_flat_adhesion_mtp_ results/robustness_first_design_ results/
 
 For each finding it prints the two levels' means, the paired change over the shared track seeds (mean +- 95 %
