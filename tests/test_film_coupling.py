@@ -193,9 +193,12 @@ def test_generalized_forces_kernel_matches_the_surface_model(lowered_step):
 
 
 @pytest.mark.jitless
-def test_newton_kernel_is_the_python_iteration(lowered_step):
-    """Kernel and Python Newton from one start: same iterations, a_n+1 and state to round-off (film K_f included)."""
+@pytest.mark.parametrize("zeta", [0.0, 0.05])
+def test_newton_kernel_is_the_python_iteration(lowered_step, zeta, monkeypatch):
+    """Kernel and Python Newton from one start: same iterations, a_n+1 and state to round-off (film K_f included),
+    without and with the contact damping."""
     scene, stepper, _, cells, h, f_old = lowered_step
+    monkeypatch.setattr(stepper, "damping_ratio", zeta)  # the module's stepper, restored after the test
     assert np.max(np.abs(stepper.film_K)) > 0.0
     q_path = stepper.q + h * stepper.v
     start = stepper.newton
@@ -211,3 +214,6 @@ def test_newton_kernel_is_the_python_iteration(lowered_step):
     assert sf_k.contact == pytest.approx(sf_p.contact, rel=1e-9)
     assert sf_k.adhesion == pytest.approx(sf_p.adhesion, rel=1e-9)
     assert sf_k.cells == sf_p.cells and sf_k.contact > 0.0
+    if zeta:  # the damping acts: the contact force differs from the undamped law's at the same attitude
+        undamped = stepper.surface.forces_on(cells, q_p)
+        assert np.abs(sf_p.damping).max() > 0.0 and abs(sf_p.contact / undamped.contact - 1.0) > 1e-6

@@ -136,8 +136,9 @@ class SurfaceModel:
     def forces_on(self, cells: Candidates, q: np.ndarray, damping: tuple | None = None) -> SurfaceForces:
         """Surface forces at attitude q from the candidate cells only.
 
-        ``damping`` = (zeta, M^-1, v, disk rate at the cells) adds the elastic law's contact damping
-        (:meth:`_elastic_damping`; the Greenwood-Williamson law's is in :func:`solver.kernels.newmark.newton_step`).
+        ``damping`` = (zeta, M^-1, v, disk rate at the cells) adds the contact damping: the Greenwood-Williamson
+        law's (:func:`solver.kernels.surface.contact_damping`, with its attitude derivative, as the Newton kernel
+        has it) or the elastic law's (:meth:`_elastic_damping`).
         """
         if self.law == "none":
             return SurfaceForces(np.zeros(3), np.zeros((3, 3)), 0.0, 0.0, 0.0, 0)
@@ -167,15 +168,23 @@ class SurfaceModel:
         else:
             w = dpc * area
             dfdq = (b * (w + dpa * area)) @ b.T + self.mu * np.outer(self.friction_arm, b @ w)
-        c_d = None
+        c_d, damped = None, 0.0
         if damping is not None and self.law == "elastic":
             pd, c_d = self._elastic_damping(pc, dpc_matrix, area, b, damping)
             pc = pc + pd
         fc = pc * area
         fa = pa * area
         f = b @ (fc + fa) + self.mu * fc.sum() * self.friction_arm
+        if damping is not None and self.law == "greenwood_williamson":
+            zeta, m_inv, v, disk_rate = damping
+            c_d = np.empty((3, 3))
+            damped = ksurf.contact_damping(
+                dn, sn, np.ascontiguousarray(b), area, np.zeros(3), v, disk_rate, self.eps, self.gw_coef, m_inv,
+                zeta, self.mu, self.friction_arm, f, dfdq, c_d,
+            )  # fmt: skip
+        contact = float(fc.sum()) + damped
         in_reach = int(np.count_nonzero(dn < self.reach + REACH_SIGMAS * sn))
-        return SurfaceForces(f, dfdq, float(fc.sum()), float(fa.sum()), self.mu * float(fc.sum()), in_reach, c_d)
+        return SurfaceForces(f, dfdq, contact, float(fa.sum()), self.mu * contact, in_reach, c_d)
 
     def _elastic_damping(
         self, pc: np.ndarray, dpc: np.ndarray, area: np.ndarray, b: np.ndarray, damping: tuple

@@ -330,15 +330,9 @@ class AbsStepper:
         None when it did not converge in ``numerics.newton_max_iter`` iterations (``self.residual`` holds the
         last weighted residual).
         """
-        if self.damping_ratio > 0.0:
-            # The resolved disk's rate at the candidate cells over this step (the contact damping's reference).
-            index = cells.index
-            disk_end = self.surface.surface[index] - cells.base  # cells.base = surface - disk at t + h
-            disk_rate = (disk_end - self.zd.ravel()[index]) / h
-        else:
-            disk_rate = np.zeros(0)
         if not self.newton_kernel:
-            return self._newton_python(h, cells, a_new, f_path, q_path, f_old, disk_rate)
+            return self._newton_python(h, cells, a_new, f_path, q_path, f_old)
+        disk_rate = self._disk_rate(h, cells)
         q1, v1, f_s, dfdq = np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
         a_new = a_new.copy()
         iterations, self.residual, converged, contact, adhesion, in_reach = knewmark.newton_step(
@@ -362,18 +356,20 @@ class AbsStepper:
         sf = SurfaceForces(f_s, dfdq, contact, adhesion, self.surface.mu * contact, in_reach)
         return a_new, q1, v1, sf
 
+    def _disk_rate(self, h: float, cells: Candidates) -> np.ndarray:
+        """The resolved disk's rate at the candidate cells over this step (the contact damping's reference)."""
+        if self.damping_ratio == 0.0:
+            return np.zeros(0)
+        index = cells.index
+        disk_end = self.surface.surface[index] - cells.base  # cells.base = surface - disk at t + h
+        return (disk_end - self.zd.ravel()[index]) / h
+
     def _newton_python(
-        self,
-        h: float,
-        cells: Candidates,
-        a_new: np.ndarray,
-        f_path: np.ndarray,
-        q_path: np.ndarray,
-        f_old: np.ndarray,
-        disk_rate: np.ndarray,
+        self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray, f_old: np.ndarray
     ):
-        """:meth:`_newton` in Python, on the surface model's forces (any contact law; the elastic law's damping
-        with its matrix in the iteration matrix, its attitude derivative left out)."""
+        """:meth:`_newton` in Python, on the surface model's forces (any contact law, with its contact damping:
+        its matrix in the iteration matrix; the elastic law's attitude derivative of the damping is left out)."""
+        disk_rate = self._disk_rate(h, cells)
         surface = self.surface
         M, C, K = self.M, self.C, self.K
         alpha_m, alpha_f, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
