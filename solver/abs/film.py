@@ -76,6 +76,7 @@ class AbsFilm:
         self.disk = z3(nx, ny)
         self.disk_xf = z3(nx - 1, ny)
         self.disk_yf = z3(nx, ny - 1)
+        self._disk_mid = np.zeros((nx, ny))
         self.constants = kf.AbsFilmConstants(
             dx=self.dx, dy=self.dy, dxc=self.dxc, dyc=self.dyc, area=self.area_scaled, lamx=self.lamx,
             lamy=self.lamy, kn=self.kn, h_ref=self.h_ref, h_switch=self.h_switch, code=self.code,
@@ -92,6 +93,7 @@ class AbsFilm:
             yweight=cy.piece_weight, yseg_ptr=cy.seg_ptr, ytheta=cy.seg_theta, yH=np.zeros((3, cy.seg_theta.size)),
         )  # fmt: skip
         self._owner = (cx.owner, cy.owner)
+        self._seg = (np.zeros((3, cx.seg_theta.size)), np.zeros((3, cy.seg_theta.size)))  # cut_corrections' scratch
         self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
         self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
@@ -103,24 +105,18 @@ class AbsFilm:
 
     def set_disk(self, disk_nodes: np.ndarray) -> None:
         """Resolved disk heights z_d at the nodes (nx, ny) [m]; faces take the mean of their two nodes."""
-        self.disk[0] = disk_nodes
-        self.disk_xf[0] = 0.5 * (disk_nodes[1:] + disk_nodes[:-1])
-        self.disk_yf[0] = 0.5 * (disk_nodes[:, 1:] + disk_nodes[:, :-1])
+        kf.set_disk(np.ascontiguousarray(disk_nodes, dtype=float), self.disk, self.disk_xf, self.disk_yf)
 
     def fill_faces(self, q: np.ndarray) -> None:
+        """The links' spacings at attitude q over the current disk (:func:`solver.kernels.film.fill_links`), and the
+        cut links' segments' (the disk of their link)."""
         g = self.grid
-        kf.fill_spacing(q, g.xf, g.y, *self.pivot, self.surface_xf, self.disk_xf, self.inv_href, self.floor, self.Hx)
-        kf.fill_spacing(q, g.x, g.yf, *self.pivot, self.surface_yf, self.disk_yf, self.inv_href, self.floor, self.Hy)
-        d, se, sy = self.disk, g.surface_xe, g.surface_ye
-        for k, (x, disk) in enumerate(((g.x[:-1], d[:, :-1]), (g.x[1:], d[:, 1:]))):
-            kf.fill_spacing(q, x, g.y, *self.pivot, se[k : k + 1], disk, self.inv_href, self.floor, self.Hxe[k : k + 1])
-        for k, (y, disk) in enumerate(((g.y[:-1], d[:, :, :-1]), (g.y[1:], d[:, :, 1:]))):
-            kf.fill_spacing(q, g.x, y, *self.pivot, sy[k : k + 1], disk, self.inv_href, self.floor, self.Hye[k : k + 1])
+        kf.fill_links(q, g.x, g.y, *self.pivot, self.surface_xf, self.surface_yf, g.surface_xe, g.surface_ye,
+                      self.disk, self.inv_href, self.floor, self.Hx, self.Hy, self.Hxe, self.Hye)  # fmt: skip
         for cuts, disk, owner, H in ((g.cuts_x, self.disk_xf, self._owner[0], self.cuts.xH),
                                      (g.cuts_y, self.disk_yf, self._owner[1], self.cuts.yH)):  # fmt: skip
-            for r in range(3):  # each segment's mid-point and ends
-                kf.fill_points(q, cuts.seg_x[r], cuts.seg_y[r], *self.pivot, cuts.seg_surface[r], disk, cuts.face,
-                               owner, self.inv_href, self.floor, H[r])  # fmt: skip
+            kf.fill_cut_points(q, cuts.seg_x, cuts.seg_y, *self.pivot, cuts.seg_surface, disk, cuts.face, owner,
+                               self.inv_href, self.floor, H)  # fmt: skip
 
     def fill_nodes(self, q: np.ndarray, out: np.ndarray) -> None:
         """Scaled spacing of each control volume's mean surface (what its squeeze term stores)."""
@@ -155,7 +151,7 @@ class AbsFilm:
                 face, ptr, weight, seg_ptr, theta, H = links
                 load, m_along, m_across = kf.cut_corrections(
                     self.P, face, ptr, weight, seg_ptr, theta, H, pos, along, across, width, spacing, axis, lam,
-                    *law, arm0, cross0,
+                    *law, arm0, cross0, self._seg[axis],
                 )  # fmt: skip
                 m_pitch, m_roll = (m_along, m_across) if axis == 0 else (m_across, m_along)
                 f, mp, mr = f + load, mp - m_pitch, mr - m_roll
@@ -216,12 +212,12 @@ class AbsFilm:
 
     def step(self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float) -> None:
         """Advance P over dt while the attitude moves q_old -> q_new and the disk disk_old -> disk_new."""
-        self.set_disk(disk_old)
-        self.fill_nodes(q_old, self.H)
-        self.set_disk(disk_new)
-        self.fill_nodes(q_new, self.H_new)
-        self.set_disk(0.5 * (disk_old + disk_new))
-        self.fill_faces(0.5 * (q_old + q_new))
+        g = self.grid
+        disk_old, disk_new = np.ascontiguousarray(disk_old, dtype=float), np.ascontiguousarray(disk_new, dtype=float)
+        for q, disk, H in ((q_old, disk_old, self.H), (q_new, disk_new, self.H_new)):  # the storage's spacings
+            kf.fill_spacing(q, g.x, g.y, *self.pivot, self.storage, disk[None], self.inv_href, self.floor, H)
+        kf.set_disk_mid(disk_old, disk_new, self._disk_mid, self.disk, self.disk_xf, self.disk_yf)
+        self.fill_faces(0.5 * (q_old + q_new))  # the links' spacings at mid-step
         self.set_disk(disk_new)
         kf.film_step(
             self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.sigma / dt, *self._kernel_film

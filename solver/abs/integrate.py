@@ -92,6 +92,7 @@ from solver.abs.forces import Candidates, SurfaceForces, SurfaceModel
 from solver.abs.params import SERIES, AbsScene
 from solver.abs.steady import MIN_FORCE_SCALE, AbsSteady, element_row, element_spacing, fly_start
 from solver.abs.track import Track
+from solver.kernels import film as kfilm
 from solver.kernels import newmark as knewmark
 
 log = logging.getLogger(__name__)
@@ -281,11 +282,7 @@ class AbsStepper:
         """
         if not self.linearized:
             return True
-        corrected = self.film.P + np.tensordot(dq, self.film_dPdq, axes=1)
-        if not np.all(corrected > 0.0):
-            return False
-        self.film.P[:] = corrected
-        return True
+        return kfilm.add_linear(self.film.P, self.film_dPdq, dq)
 
     def _film_jacobian(self, P_start: np.ndarray, q_path: np.ndarray, zd1: np.ndarray, h: float) -> bool:
         """Refresh, when due, the film step's derivatives with respect to the attitude at t + h; False if it failed.

@@ -223,22 +223,32 @@ def profile_weight(pe: float) -> float:
 @njit
 def series_mean(
     pl: float, pr: float, H: np.ndarray, theta: np.ndarray, pos: np.ndarray, s0: int, s1: int, inv_d: float,
-    lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float,
+    lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float, seg: np.ndarray,
 ) -> tuple[float, float]:  # fmt: skip
     """Mean of P - 1 over a link's segments in series, and of (P - 1)(pos - arm0): each segment's exact profile.
 
-    The inner pressures come from the same elimination as
-    :func:`series_flux`, marched again with the flux known; pos (k,) are the
-    segments' mid-points along the link [m], the moment arm of each segment.
+    The flux comes from the elimination of :func:`series_flux` (the same recurrences, without the
+    derivatives), which keeps each segment's g, c and Pe in ``seg`` (3, k); the inner pressures are then
+    marched again with the flux known.  pos (k,) are the segments' mid-points along the link [m], the
+    moment arm of each segment.
     """
     pf = 0.5 * (pl + pr)
-    F, _, _ = series_flux(pl, pr, H, theta, s0, s1, inv_d, lam, kn, h_ref, h_switch, code)
+    u, v = 1.0, 0.0
+    for m in range(s1 - s0):
+        k = s1 - 1 - m if lam >= 0.0 else s0 + m
+        g, _, c, _, pe = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
+        seg[0, k], seg[1, k], seg[2, k] = g, c, pe
+        if lam >= 0.0:
+            u, v = g * u / c, (1.0 + g * v) / c
+        else:
+            u, v = c * u / g, (c * v + 1.0) / g
+    F = (pl - u * pr) / v if lam >= 0.0 else (u * pl - pr) / v
     u, v = 1.0, 0.0
     mean = moment = 0.0
     near = pr if lam >= 0.0 else pl  # pressure at the end the march starts from
     for m in range(s1 - s0):
         k = s1 - 1 - m if lam >= 0.0 else s0 + m
-        g, _, c, _, pe = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
+        g, c, pe = seg[0, k], seg[1, k], seg[2, k]
         if lam >= 0.0:
             u, v = g * u / c, (1.0 + g * v) / c
             far = u * pr + v * F  # the segment's upstream (left) end
@@ -260,7 +270,7 @@ def cut_corrections(
     P: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray, seg_ptr: np.ndarray,
     theta: np.ndarray, H: np.ndarray, pos: np.ndarray, nodes: np.ndarray, cross: np.ndarray, width: np.ndarray,
     spacing: np.ndarray, axis: int, lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float,
-    cross0: float,
+    cross0: float, seg: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
     """What the cut links change in the integrals of P - 1, (P - 1)(s - arm0) and (P - 1)(c - cross0) [m2, m3, m3].
 
@@ -270,7 +280,7 @@ def cut_corrections(
     (:func:`series_mean`), pieces in parallel, over the link length times
     the strip ``width`` (the control volumes' extent across the link).
     s is the coordinate along the link (x for axis 0, y for axis 1), c the
-    one across it, whose node coordinates are ``cross``.
+    one across it, whose node coordinates are ``cross``.  ``seg`` (3, k): scratch for :func:`series_mean`.
     """
     load = moment = moment_cross = 0.0
     for n in range(face.shape[0]):
@@ -284,7 +294,7 @@ def cut_corrections(
         mean = mom = 0.0
         for p in range(piece_ptr[n], piece_ptr[n + 1]):
             a, b = series_mean(pl, pr, H, theta, pos, seg_ptr[p], seg_ptr[p + 1], inv_d, lam, kn, h_ref,
-                               h_switch, code, arm0)  # fmt: skip
+                               h_switch, code, arm0, seg)  # fmt: skip
             mean += weight[p] * a
             mom += weight[p] * b
         trap = 0.5 * ((pl - 1.0) + (pr - 1.0))
@@ -435,6 +445,100 @@ def fill_spacing(
         for j in range(n2):
             h = base - (y[j] - pivot_y) * roll + surface[0, i, j] - disk[0, i, j]
             H[0, i, j] = max(h, floor) * inv_href
+
+
+@njit
+def fill_links(
+    q: np.ndarray, x: np.ndarray, y: np.ndarray, pivot_x: float, pivot_y: float, surface_xf: np.ndarray,
+    surface_yf: np.ndarray, surface_xe: np.ndarray, surface_ye: np.ndarray, disk: np.ndarray, inv_href: float,
+    floor: float, Hx: np.ndarray, Hy: np.ndarray, Hxe: np.ndarray, Hye: np.ndarray,
+) -> None:  # fmt: skip
+    """The links' scaled spacings at attitude q over the node disk heights ``disk`` (1, nx, ny) [m].
+
+    Hx (1, nx-1, ny) at each x-link's mid-point over the mean of its nodes' disk, Hxe (2, nx-1, ny) at its
+    two nodes on the link's own surface (``surface_xe``) over each node's disk; Hy, Hye the same for the
+    y-links.  Each value is :func:`fill_spacing`'s, max(z - (x - xp) pitch - (y - yp) roll + s - z_d, floor)
+    / h_ref, for all six arrays in one pass.
+    """
+    z, pitch, roll = q[0], q[1], q[2]
+    nx, ny = x.size, y.size
+    for i in range(nx - 1):  # separate branch-free loops: each vectorizes
+        base_m = z - (0.5 * (x[i] + x[i + 1]) - pivot_x) * pitch
+        base_0 = z - (x[i] - pivot_x) * pitch
+        base_1 = z - (x[i + 1] - pivot_x) * pitch
+        for j in range(ny):
+            by = (y[j] - pivot_y) * roll
+            d0, d1 = disk[0, i, j], disk[0, i + 1, j]
+            Hx[0, i, j] = max(base_m - by + surface_xf[0, i, j] - 0.5 * (d1 + d0), floor) * inv_href
+            Hxe[0, i, j] = max(base_0 - by + surface_xe[0, i, j] - d0, floor) * inv_href
+            Hxe[1, i, j] = max(base_1 - by + surface_xe[1, i, j] - d1, floor) * inv_href
+    for i in range(nx):
+        base = z - (x[i] - pivot_x) * pitch
+        for j in range(ny - 1):
+            d0, d1 = disk[0, i, j], disk[0, i, j + 1]
+            Hy[0, i, j] = max(base - (0.5 * (y[j] + y[j + 1]) - pivot_y) * roll + surface_yf[0, i, j]
+                              - 0.5 * (d1 + d0), floor) * inv_href  # fmt: skip
+            Hye[0, i, j] = max(base - (y[j] - pivot_y) * roll + surface_ye[0, i, j] - d0, floor) * inv_href
+            Hye[1, i, j] = max(base - (y[j + 1] - pivot_y) * roll + surface_ye[1, i, j] - d1, floor) * inv_href
+
+
+@njit
+def fill_cut_points(
+    q: np.ndarray, seg_x: np.ndarray, seg_y: np.ndarray, pivot_x: float, pivot_y: float, seg_surface: np.ndarray,
+    disk_f: np.ndarray, face: np.ndarray, owner: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`fill_points` at the cut segments' mid-points and both ends: seg_x, seg_y, seg_surface and H (3, k)."""
+    z, pitch, roll = q[0], q[1], q[2]
+    for r in range(3):
+        for k in range(seg_x.shape[1]):
+            n = owner[k]
+            h = (z - (seg_x[r, k] - pivot_x) * pitch - (seg_y[r, k] - pivot_y) * roll + seg_surface[r, k]
+                 - disk_f[0, face[n, 0], face[n, 1]])  # fmt: skip
+            H[r, k] = max(h, floor) * inv_href
+
+
+@njit
+def set_disk(nodes: np.ndarray, disk: np.ndarray, disk_xf: np.ndarray, disk_yf: np.ndarray) -> None:
+    """Resolved disk heights at the nodes (nx, ny) into ``disk`` (1, nx, ny) and their link means into
+    ``disk_xf`` (1, nx-1, ny) and ``disk_yf`` (1, nx, ny-1) [m]: one pass instead of three array expressions."""
+    nx, ny = nodes.shape
+    for i in range(nx):
+        for j in range(ny):
+            disk[0, i, j] = nodes[i, j]
+    for i in range(nx - 1):
+        for j in range(ny):
+            disk_xf[0, i, j] = 0.5 * (nodes[i + 1, j] + nodes[i, j])
+    for i in range(nx):
+        for j in range(ny - 1):
+            disk_yf[0, i, j] = 0.5 * (nodes[i, j + 1] + nodes[i, j])
+
+
+@njit
+def set_disk_mid(old: np.ndarray, new: np.ndarray, mid: np.ndarray, disk: np.ndarray, disk_xf: np.ndarray,
+                 disk_yf: np.ndarray) -> None:  # fmt: skip
+    """:func:`set_disk` of the mid-step disk (old + new) / 2, which is also written to ``mid`` (nx, ny)."""
+    nx, ny = old.shape
+    for i in range(nx):
+        for j in range(ny):
+            mid[i, j] = 0.5 * (old[i, j] + new[i, j])
+    set_disk(mid, disk, disk_xf, disk_yf)
+
+
+@njit
+def add_linear(P: np.ndarray, S: np.ndarray, dq: np.ndarray) -> bool:
+    """P += sum_k dq_k S[k] in place if every result stays positive (True); otherwise P is left as it was (False).
+
+    P : (1, nx, ny); S : (3, 1, nx, ny), the film step's derivatives with respect to the attitude.
+    """
+    nx, ny = P.shape[1], P.shape[2]
+    for i in range(nx):
+        for j in range(ny):
+            if not P[0, i, j] + dq[0] * S[0, 0, i, j] + dq[1] * S[1, 0, i, j] + dq[2] * S[2, 0, i, j] > 0.0:
+                return False
+    for i in range(nx):
+        for j in range(ny):
+            P[0, i, j] += dq[0] * S[0, 0, i, j] + dq[1] * S[1, 0, i, j] + dq[2] * S[2, 0, i, j]
+    return True
 
 
 @njit
