@@ -739,3 +739,63 @@ def test_series_flux_of_one_segment_is_the_face_flux_and_of_two_conserves_mass(c
              - kernels_film.series_flux(pl, pr - e, H2, theta, 0, 2, inv_d, lam, *const)[0]) / (2 * e)  # fmt: skip
     scale = abs(F) / max(pl, pr) + abs(dl) + abs(dr)
     assert abs(dl - num_l) <= 1e-6 * scale and abs(dr - num_r) <= 1e-6 * scale, (dl, num_l, dr, num_r)
+
+
+@pytest.mark.jitless
+def test_link_spacings_are_the_plane_over_the_disk_at_every_point():
+    """The film's link spacings (one-pass kernels) are max(z - (x - xp) pitch - (y - yp) roll + s - z_d, floor) / h_ref
+    evaluated point by point: at link mid-points over the mean of the nodes' disk, at each link's two nodes on the
+    link's own surface over that node's disk, and at the cut segments' points over their link's disk.  Disk heights
+    of a few nm against a film floor of 0.3 nm put some points on the floor."""
+    scene = chen_bogy(COARSE)
+    film = AbsFilm(scene)
+    g, (xp, yp) = film.grid, film.pivot
+    rng = np.random.default_rng(3)
+    disk = rng.normal(0.0, 2e-9, film.shape)
+    q = np.array([3e-9, 1.2e-4, -2e-5])
+    film.set_disk(disk)
+    film.fill_faces(q)
+    floor, h_ref = scene.numerics.film_floor, film.h_ref
+
+    def spacing(x, y, surface, zd):
+        return np.maximum(q[0] - (x - xp) * q[1] - (y - yp) * q[2] + surface - zd, floor) / h_ref
+
+    X, Y = g.x[:, None], g.y[None, :]
+    expected = {
+        "Hx": spacing(0.5 * (X[1:] + X[:-1]), Y, g.surface_xf, 0.5 * (disk[1:] + disk[:-1])),
+        "Hy": spacing(X, 0.5 * (Y[:, 1:] + Y[:, :-1]), g.surface_yf, 0.5 * (disk[:, 1:] + disk[:, :-1])),
+        "Hxe0": spacing(X[:-1], Y, g.surface_xe[0], disk[:-1]),
+        "Hxe1": spacing(X[1:], Y, g.surface_xe[1], disk[1:]),
+        "Hye0": spacing(X, Y[:, :-1], g.surface_ye[0], disk[:, :-1]),
+        "Hye1": spacing(X, Y[:, 1:], g.surface_ye[1], disk[:, 1:]),
+    }
+    got = {"Hx": film.Hx[0], "Hy": film.Hy[0], "Hxe0": film.Hxe[0], "Hxe1": film.Hxe[1], "Hye0": film.Hye[0],
+           "Hye1": film.Hye[1]}  # fmt: skip
+    for cuts, H, link_disk in ((g.cuts_x, film.cuts.xH, film.disk_xf[0]), (g.cuts_y, film.cuts.yH, film.disk_yf[0])):
+        assert cuts.count > 0
+        zd = link_disk[cuts.face[cuts.owner, 0], cuts.face[cuts.owner, 1]]
+        expected[f"cut{len(expected)}"] = spacing(cuts.seg_x, cuts.seg_y, cuts.seg_surface, zd[None, :])
+        got[f"cut{len(got)}"] = H
+    floored = sum(int(np.count_nonzero(v == floor / h_ref)) for v in expected.values())
+    assert floored > 0  # the floor is exercised
+    for name, value in expected.items():
+        np.testing.assert_allclose(got[name], value, rtol=1e-14, atol=1e-14, err_msg=name)
+
+
+@pytest.mark.jitless
+def test_the_film_steps_linear_correction_is_all_or_nothing():
+    """P += sum_k dq_k S_k when every node stays positive; otherwise P is left exactly as it was (False)."""
+    from solver.kernels.film import add_linear
+
+    rng = np.random.default_rng(5)
+    P = 1.0 + rng.random((1, 7, 5))
+    S = rng.normal(size=(3, 1, 7, 5))
+    dq = np.array([1e-3, -2e-3, 5e-4])
+    expected = P + np.tensordot(dq, S, axes=1)
+    moved = P.copy()
+    assert add_linear(moved, S, dq)
+    np.testing.assert_allclose(moved, expected, rtol=1e-15, atol=0.0)
+    S[1, 0, 3, 2] = 1e6  # one node would go negative
+    kept = P.copy()
+    assert not add_linear(kept, S, dq)
+    assert np.array_equal(kept, P)

@@ -329,22 +329,6 @@ def cut_fluxes(
 
 
 @njit
-def fill_points(
-    q: np.ndarray, px: np.ndarray, py: np.ndarray, pivot_x: float, pivot_y: float, surface: np.ndarray,
-    disk: np.ndarray, face: np.ndarray, owner: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
-) -> None:  # fmt: skip
-    """H_k = max(z - (px_k - xp) pitch - (py_k - yp) roll + surface_k - z_d, floor) / h_ref at scattered points.
-
-    The disk height z_d of point k is that of the link face[owner[k]] in ``disk`` (1, n1, n2) [m].
-    """
-    z, pitch, roll = q[0], q[1], q[2]
-    for k in range(px.size):
-        n = owner[k]
-        h = z - (px[k] - pivot_x) * pitch - (py[k] - pivot_y) * roll + surface[k] - disk[0, face[n, 0], face[n, 1]]
-        H[k] = max(h, floor) * inv_href
-
-
-@njit
 def assemble(
     P: np.ndarray,
     Hx: np.ndarray,
@@ -487,7 +471,11 @@ def fill_cut_points(
     q: np.ndarray, seg_x: np.ndarray, seg_y: np.ndarray, pivot_x: float, pivot_y: float, seg_surface: np.ndarray,
     disk_f: np.ndarray, face: np.ndarray, owner: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
 ) -> None:  # fmt: skip
-    """:func:`fill_points` at the cut segments' mid-points and both ends: seg_x, seg_y, seg_surface and H (3, k)."""
+    """H = max(z - (x - xp) pitch - (y - yp) roll + surface - z_d, floor) / h_ref at the cut segments' points.
+
+    seg_x, seg_y, seg_surface and H (3, k): each segment's mid-point and both ends; the disk height z_d of
+    segment k is that of its link face[owner[k]] in ``disk_f`` (1, n1, n2) [m].
+    """
     z, pitch, roll = q[0], q[1], q[2]
     for r in range(3):
         for k in range(seg_x.shape[1]):
