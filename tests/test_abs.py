@@ -444,6 +444,24 @@ def test_wide_wedge_follows_the_1d_reynolds_equation(slip):
     assert np.all(orders >= 1.3) and orders[-1] >= 1.8, (errors, orders)
 
 
+@pytest.mark.jitless
+def test_thin_wedge_load_converges_at_second_order():
+    """A plane wedge whose film ends at the trailing edge at a high bearing number (h_o = 20 nm, Lambda = 9571):
+    the pressure falls to ambient in a layer far thinner than a cell, inside the last link.  The node quadrature
+    alone gives the edge node's half cell the ambient pressure, a first-order error in the load (measured: loads
+    0.104331, 0.105707, 0.106398 N at nx = 51, 101, 201: order 0.99, 0.65 % between the last two); the link's
+    exponential profile in the force gives 0.1070585, 0.1070499, 0.1070477 N (order 2.03, 2e-5)."""
+    h_out, width = 20e-9, 4 * LENGTH
+    base = {"disk.rpm": 2000.0, "disk.skew": 0.0, "models.slip": "continuum", "numerics.ny": 21}
+    q = np.array([1.5 * h_out, h_out / LENGTH, 0.0])
+    loads = np.array(
+        [steady_film(flat_scene(base | {"numerics.nx": nx}, width=width), q).forces()[0] for nx in (51, 101, 201)]
+    )
+    d1, d2 = loads[0] - loads[1], loads[1] - loads[2]
+    assert np.log2(abs(d1 / d2)) >= 1.8, loads
+    assert abs(d2) <= 1e-4 * loads[2], loads
+
+
 #: Rayleigh step: pad spacing h2 [m], step height [m], step position X = x / L, slider width [m].
 STEP_H2, STEP_HEIGHT, STEP_AT, STEP_WIDTH = 0.05e-6, 0.5e-6, 0.6137, 10 * LENGTH
 

@@ -6,14 +6,14 @@ The semi-discrete film of :mod:`solver.kernels.film` at the interior nodes,
 
 and the slider's equations of motion (:mod:`solver.abs.integrate`),
 
-    M q'' + C q' + (K - K_s) q = f_air(P),   f_air = p0 sum_nodes area (P - 1) (1, -(x - xp), -(y - yp)),
+    M q'' + C q' + (K - K_s) q = f_air(P, q),
 
 linearized about the steady state (P0, q0) on a smooth disk give the
 first-order system y' = A y for y = (dP, dq, dv):
 
     dP' = -(sigma A H0)^-1 [J_P dP + R_q dq + sigma A P0 H_q dv]
     dq' = dv
-    dv' = M^-1 [F_P dP - (K - K_s) dq - C dv]
+    dv' = M^-1 [F_P dP - (K - K_s - F_q) dq - C dv]
 
 with J_P = dR/dP (the exact Jacobian the steady solve uses), R_q = dR/dq
 and H_q = dH/dq by forward differences of the face and node spacings, K_s
@@ -25,11 +25,13 @@ eigenvalues near the imaginary axis are found by shift-invert Arnoldi
 the frequency band; small systems (coarse grids) get all their
 eigenvalues at once.
 
-The film forces use the node quadrature (the cut links' segment
-corrections of :meth:`solver.abs.film.AbsFilm.forces` are left out of
-F_P); the modes are those of the time stepper's equations without its
-time discretization: what a run tends to as dt -> 0, and the reference
-for the numerical damping a step adds (:func:`numerical_damping`).
+The film forces are those of :meth:`solver.abs.film.AbsFilm.forces`, the
+node quadrature with the segment profiles of the cut links and the edge
+links: F_P = d f_air / dP (:meth:`~solver.abs.film.AbsFilm.force_gradient`)
+and F_q = d f_air / dq at fixed P (through the links' spacings, forward
+differences).  The modes are those of the time stepper's equations
+without its time discretization: what a run tends to as dt -> 0, and the
+reference for the numerical damping a step adds (:func:`numerical_damping`).
 """
 
 from __future__ import annotations
@@ -103,18 +105,23 @@ def linear_system(scene: AbsScene, film: AbsFilm, q0: np.ndarray) -> sp.csc_matr
         Hq[:, k] = (Hk[0, 1:-1, 1:-1] - H0[0, 1:-1, 1:-1]).ravel() / probe
     film.fill_faces(q0)
     film.residual()  # leave the film's scratch as the steady state's
+    F_P = film.force_gradient()[:, 1:-1, 1:-1].reshape(3, -1)
+    f0 = film.forces()
+    F_q = np.zeros((3, 3))  # the film forces' own attitude dependence at fixed P (the links' segment profiles)
+    for k in range(3):
+        probe = PROBE / reach[k]
+        q = q0.copy()
+        q[k] += probe
+        film.fill_faces(q)
+        F_q[:, k] = (film.forces() - f0) / probe
+    film.fill_faces(q0)
     A_s = film.area_scaled[1:-1, 1:-1].ravel()
     P0 = film.P[0, 1:-1, 1:-1].ravel()
     store = film.sigma * A_s * H0[0, 1:-1, 1:-1].ravel()
-    xp, yp = film.pivot
-    area = g.area[1:-1, 1:-1]
-    arm_x = np.broadcast_to(-(g.x[1:-1, None] - xp), area.shape)
-    arm_y = np.broadcast_to(-(g.y[None, 1:-1] - yp), area.shape)
-    F_P = film.p0 * np.vstack([area.ravel(), (arm_x * area).ravel(), (arm_y * area).ravel()])
     M = mass_matrix(scene)
     K, C = stiffness_damping(scene)
     surface = SurfaceModel(scene, g)
-    K_total = K - surface.forces(film.spacing(q0), np.zeros(film.shape)).dfdq
+    K_total = K - surface.forces(film.spacing(q0), np.zeros(film.shape)).dfdq - F_q
     M_inv = np.linalg.inv(M)
     scale = sp.diags(1.0 / store)
     top = sp.hstack([-(scale @ J), sp.csr_matrix(-Rq / store[:, None]),
