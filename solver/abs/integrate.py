@@ -31,8 +31,8 @@ no suspension; ``tests/test_partial.py``) leaves with E_after / E_before
 = 1.75, 0.992, 0.998, 1.0002 at dt = 0.2, 0.1, 0.05, 0.025 us under the
 trapezoidal rule, 0.84, 0.86, 0.90, 0.96 with rho = 0 (never more than
 1), and 1.41, 0.965, 0.986, 0.996 with rho = 0.5.  But rho < 1 also damps
-the resolved modes: the film's second pitch mode (729 kHz, damping ratio
-0.23 % on chen_bogy2007, :mod:`solver.abs.modes`) gets 0.107 from rho = 0
+the resolved modes: the film's second pitch mode (728 kHz, damping ratio
+0.16 % on chen_bogy2007, :mod:`solver.abs.modes`) gets 0.107 from rho = 0
 at dt = 0.2 us and 5.1e-3 at 0.05 us, and its response to the track, which
 dominates the bouncing at the element, was set by the step (the 3-sigma
 doubled with every halving of dt).  The default, rho = 0.5 at dt = 0.05 us,
