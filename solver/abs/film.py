@@ -95,7 +95,6 @@ class AbsFilm:
         self._owner = (cx.owner, cy.owner)
         self._seg = (np.zeros((3, cx.seg_theta.size)), np.zeros((3, cy.seg_theta.size)))  # cut_corrections' scratch
         self._edges = (self._edge_links(0, cx.face), self._edge_links(1, cy.face))
-        self._edge_seg = tuple(np.zeros((3, e[0].shape[0])) for e in self._edges)
         self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
         self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
@@ -156,7 +155,7 @@ class AbsFilm:
         """
         g, (xp, yp) = self.grid, self.pivot
         grad = np.stack([g.area, -(g.x[:, None] - xp) * g.area, -(g.y[None, :] - yp) * g.area])
-        links = [self.cuts.xface, self.cuts.yface, self._edges[0][0], self._edges[1][0]]
+        links = [self.cuts.xface, self.cuts.yface, self._edges[0], self._edges[1]]
         shift = [np.array([[1, 0]]), np.array([[0, 1]]), np.array([[1, 0]]), np.array([[0, 1]])]
         nodes = np.unique(np.concatenate([np.concatenate([f, f + d]) for f, d in zip(links, shift, strict=True)]),
                           axis=0)  # fmt: skip
@@ -183,44 +182,37 @@ class AbsFilm:
             (c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, yp, xp),
         )
         for axis, (links, pos, along, across, width, spacing, lam, arm0, cross0) in enumerate(per_axis):
-            edge_face, edge_ptr, ones, edge_H, edge_pos = self._edges[axis]
-            if edge_face.shape[0]:
-                node_H, link_H = (self.Hx, self.Hxe) if axis == 0 else (self.Hy, self.Hye)
-                i, j = edge_face[:, 0], edge_face[:, 1]
-                edge_H[0], edge_H[1], edge_H[2] = node_H[0, i, j], link_H[0, i, j], link_H[1, i, j]
-            for face, ptr, weight, seg_ptr, theta, H, seg_pos, seg in (
-                (*links, pos, self._seg[axis]),
-                (edge_face, edge_ptr, ones, edge_ptr, ones, edge_H, edge_pos, self._edge_seg[axis]),
-            ):
-                if not face.shape[0]:
-                    continue
-                load, m_along, m_across = kf.cut_corrections(
-                    self.P, face, ptr, weight, seg_ptr, theta, H, seg_pos, along, across, width, spacing, axis, lam,
-                    *law, arm0, cross0, seg,
-                )  # fmt: skip
+            face, ptr, weight, seg_ptr, theta, H = links
+            corrections = []
+            if face.shape[0]:
+                corrections.append(kf.cut_corrections(
+                    self.P, face, ptr, weight, seg_ptr, theta, H, pos, along, across, width, spacing, axis, lam,
+                    *law, arm0, cross0, self._seg[axis],
+                ))  # fmt: skip
+            edges = self._edges[axis]
+            if edges.shape[0]:
+                Hm, He = (self.Hx, self.Hxe) if axis == 0 else (self.Hy, self.Hye)
+                corrections.append(kf.edge_corrections(
+                    self.P, Hm, He, edges, axis, along, across, width, spacing, lam, *law, arm0, cross0
+                ))  # fmt: skip
+            for load, m_along, m_across in corrections:
                 m_pitch, m_roll = (m_along, m_across) if axis == 0 else (m_across, m_along)
                 f, mp, mr = f + load, mp - m_pitch, mr - m_roll
         return np.array([f, mp, mr])
 
-    def _edge_links(self, axis: int, cut: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The links from the edge of the face along ``axis`` that are not cut links, as one-segment links.
+    def _edge_links(self, axis: int, cut: np.ndarray) -> np.ndarray:
+        """The links from the edge of the face along ``axis`` that are not cut links (m, 2): their lower nodes.
 
         Links i = 0 and nx - 2 (axis 0; j = 0 and ny - 2 for axis 1) between interior strips; ``cut`` (n, 2)
-        the axis's cut links, which already carry their profiles.  Returns face (m, 2), ptr (m + 1,), ones (m,),
-        H (3, m) (set in :meth:`forces`) and the links' mid-points along the axis (m,) [m].
+        the axis's cut links, which already carry their profiles.
         """
         nx, ny = self.shape
-        g = self.grid
         if axis == 0:
             faces = [(i, j) for i in sorted({0, nx - 2}) for j in range(1, ny - 1)]
         else:
             faces = [(i, j) for j in sorted({0, ny - 2}) for i in range(1, nx - 1)]
         taken = {(int(a), int(b)) for a, b in cut}
-        face = np.array([f for f in faces if f not in taken], dtype=np.int64).reshape(-1, 2)
-        nodes = g.x if axis == 0 else g.y
-        k = face[:, axis]
-        m = face.shape[0]
-        return face, np.arange(m + 1), np.ones(m), np.zeros((3, m)), 0.5 * (nodes[k] + nodes[k + 1])
+        return np.array([f for f in faces if f not in taken], dtype=np.int64).reshape(-1, 2)
 
     # steady -------------------------------------------------------------------------------------------
 

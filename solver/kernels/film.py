@@ -306,6 +306,41 @@ def cut_corrections(
 
 
 @njit
+def edge_corrections(
+    P: np.ndarray, Hm: np.ndarray, He: np.ndarray, face: np.ndarray, axis: int, nodes: np.ndarray,
+    cross: np.ndarray, width: np.ndarray, spacing: np.ndarray, lam: float, kn: float, h_ref: float,
+    h_switch: float, code: int, arm0: float, cross0: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`cut_corrections` of plain links (one segment each, spacings Hm (1, n1, n2) at the link mid-points
+    and He (2, n1, n2) at its nodes): the links ``face`` (n, 2) to the edge of the face, whose exponential
+    profile holds a thin film's boundary layer against P = 1.
+
+    With one segment the march of :func:`series_mean` ends where it starts: the profile runs from P_L to P_R,
+    exponential in m = P H with the segment's Pe, and its mean is (m_L + (m_R - m_L) w(Pe)) / H_mid - 1.
+    """
+    load = moment = moment_cross = 0.0
+    for n in range(face.shape[0]):
+        i, j = face[n, 0], face[n, 1]
+        if axis == 0:
+            pr, inv_d, k, strip, arm = P[0, i + 1, j], 1.0 / spacing[i], i, width[j], cross[j] - cross0
+        else:
+            pr, inv_d, k, strip, arm = P[0, i, j + 1], 1.0 / spacing[j], j, width[i], cross[i] - cross0
+        pl = P[0, i, j]
+        h, hl, hr = Hm[0, i, j], He[0, i, j], He[1, i, j]
+        _, _, _, _, pe = segment(0.5 * (pl + pr), h, hl, hr, inv_d, lam, kn, h_ref, h_switch, code)
+        m0, m1 = pl * hl, pr * hr
+        mean = (m0 + (m1 - m0) * profile_weight(pe)) / h - 1.0
+        length = nodes[k + 1] - nodes[k]
+        mid = 0.5 * (nodes[k] + nodes[k + 1]) - arm0
+        trap = 0.5 * ((pl - 1.0) + (pr - 1.0))
+        trap_mom = 0.5 * ((pl - 1.0) * (nodes[k] - arm0) + (pr - 1.0) * (nodes[k + 1] - arm0))
+        load += strip * length * (mean - trap)
+        moment += strip * length * (mean * mid - trap_mom)
+        moment_cross += strip * length * (mean - trap) * arm
+    return load, moment, moment_cross
+
+
+@njit
 def cut_fluxes(
     P: np.ndarray, face_out: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray,
     seg_ptr: np.ndarray, theta: np.ndarray, H: np.ndarray, spacing: np.ndarray, axis: int, lam: float,
