@@ -266,6 +266,18 @@ def series_mean(
 
 
 @njit
+def link_geometry(
+    P: np.ndarray, i: int, j: int, axis: int, spacing: np.ndarray, width: np.ndarray, cross: np.ndarray,
+    cross0: float,
+) -> tuple[float, float, float, int, float, float]:  # fmt: skip
+    """The link from node (i, j) along ``axis``: its end pressures, 1/length (scaled), its index along the axis,
+    its strip width across and the strip's moment arm across (cross - cross0)."""
+    if axis == 0:
+        return P[0, i, j], P[0, i + 1, j], 1.0 / spacing[i], i, width[j], cross[j] - cross0
+    return P[0, i, j], P[0, i, j + 1], 1.0 / spacing[j], j, width[i], cross[i] - cross0
+
+
+@njit
 def cut_corrections(
     P: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray, seg_ptr: np.ndarray,
     theta: np.ndarray, H: np.ndarray, pos: np.ndarray, nodes: np.ndarray, cross: np.ndarray, width: np.ndarray,
@@ -285,11 +297,7 @@ def cut_corrections(
     load = moment = moment_cross = 0.0
     for n in range(face.shape[0]):
         i, j = face[n, 0], face[n, 1]
-        if axis == 0:
-            pr, inv_d, k, strip, arm = P[0, i + 1, j], 1.0 / spacing[i], i, width[j], cross[j] - cross0
-        else:
-            pr, inv_d, k, strip, arm = P[0, i, j + 1], 1.0 / spacing[j], j, width[i], cross[i] - cross0
-        pl = P[0, i, j]
+        pl, pr, inv_d, k, strip, arm = link_geometry(P, i, j, axis, spacing, width, cross, cross0)
         length = nodes[k + 1] - nodes[k]
         mean = mom = 0.0
         for p in range(piece_ptr[n], piece_ptr[n + 1]):
@@ -321,11 +329,7 @@ def edge_corrections(
     load = moment = moment_cross = 0.0
     for n in range(face.shape[0]):
         i, j = face[n, 0], face[n, 1]
-        if axis == 0:
-            pr, inv_d, k, strip, arm = P[0, i + 1, j], 1.0 / spacing[i], i, width[j], cross[j] - cross0
-        else:
-            pr, inv_d, k, strip, arm = P[0, i, j + 1], 1.0 / spacing[j], j, width[i], cross[i] - cross0
-        pl = P[0, i, j]
+        pl, pr, inv_d, k, strip, arm = link_geometry(P, i, j, axis, spacing, width, cross, cross0)
         h, hl, hr = Hm[0, i, j], He[0, i, j], He[1, i, j]
         _, _, _, _, pe = segment(0.5 * (pl + pr), h, hl, hr, inv_d, lam, kn, h_ref, h_switch, code)
         m0, m1 = pl * hl, pr * hr
