@@ -819,7 +819,6 @@ def test_the_film_steps_linear_correction_is_all_or_nothing():
     assert np.array_equal(kept, P)
 
 
-@pytest.mark.jitless
 def test_force_gradient_is_the_derivative_of_the_film_force(coarse_attitude):
     """force_gradient (the node quadrature's weights plus the cut and edge links' profiles, what the modes use) is
     d forces / dP: a random perturbation of the steady pressure moves the forces by its contraction with the
