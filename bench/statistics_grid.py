@@ -9,8 +9,11 @@ contact fraction, and the paired difference of every grid to the finest.
     python bench/statistics_grid.py --grids 121x101,161x135,181x151,241x201 --seeds 1-4 -o grid.jsonl
     python bench/statistics_grid.py --grids 121x101,241x201 --seeds 5-8 -o grid.jsonl   # more tracks, two grids
     python bench/statistics_grid.py --report -o grid.jsonl                             # the table only
+    python bench/statistics_grid.py --report -o grid.jsonl --netcdf results/statistics_grid.nc \
+        --figure results/statistics_grid.png                                           # and the file, the figure
 
-A default run costs about 45 s at 121 x 101 and 170 s at 241 x 201 on one core.
+A default run costs about 45 s at 121 x 101 and 170 s at 241 x 201 on one core.  Each record keeps the commit
+it was computed at; the netCDF file lists them (``run_commits``).
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ def parse_range(text: str) -> list[int]:
 
 
 def run(grids: list[tuple[int, int]], seeds: list[int], out: Path) -> None:
+    from pipeline.provenance import git_commit
     from solver.abs.integrate import simulate_abs, summarize
     from solver.kinds import scene_from_dict
 
@@ -60,7 +64,8 @@ def run(grids: list[tuple[int, int]], seeds: list[int], out: Path) -> None:
             wall = time.perf_counter()
             result = simulate_abs(scene)
             record = {"nx": nx, "ny": ny, "seed": seed, "status": result.status, "message": result.message,
-                      "wall": time.perf_counter() - wall, **summarize(result, scene)}  # fmt: skip
+                      "wall": time.perf_counter() - wall, "git_commit": git_commit(),
+                      **summarize(result, scene)}  # fmt: skip
             with out.open("a") as f:
                 f.write(json.dumps(record) + "\n")
             print(f"{nx} x {ny} seed {seed}: 3-sigma {record['bouncing_3sigma'] * 1e9:.3f} nm, "
@@ -78,10 +83,7 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
 
 
 def report(path: Path) -> None:
-    records = [r for r in read(path) if r["status"] == 0]
-    by_grid: dict[tuple[int, int], dict[int, dict]] = {}
-    for r in records:
-        by_grid.setdefault((r["nx"], r["ny"]), {})[r["seed"]] = r
+    by_grid = grouped(path)
     if not by_grid:
         raise SystemExit(f"{path}: no finished runs")
     finest = max(by_grid)
@@ -98,17 +100,113 @@ def report(path: Path) -> None:
             print(line)
 
 
+def grouped(path: Path) -> dict[tuple[int, int], dict[int, dict]]:
+    """The finished runs of ``path`` by grid and seed."""
+    by_grid: dict[tuple[int, int], dict[int, dict]] = {}
+    for r in read(path):
+        if r["status"] == 0:
+            by_grid.setdefault((r["nx"], r["ny"]), {})[r["seed"]] = r
+    return by_grid
+
+
+def dataset(path: Path):
+    """The runs as an xarray Dataset: each measure on (grid, seed), NaN where a run is missing, and per grid
+    the mean, the 95 % half-width and the paired difference to the finest grid with its half-width."""
+    import xarray as xr
+
+    from pipeline.data.netcdf import var
+    from pipeline.provenance import base_attrs
+
+    by_grid = grouped(path)
+    grids = sorted(by_grid)
+    seeds = sorted({s for runs in by_grid.values() for s in runs})
+    finest = grids[-1]
+    data = {}
+    for name, _scale, unit in MEASURES:
+        units = {"nm": "m", "uN": "N", "%": "1"}[unit]  # stored in SI (a fraction for the contact time)
+        table = np.full((len(grids), len(seeds)), np.nan)
+        for g, grid in enumerate(grids):
+            for k, seed in enumerate(seeds):
+                if seed in by_grid[grid]:
+                    table[g, k] = by_grid[grid][seed][name]
+        data[name] = var(table, ("grid", "realization"), units, f"{name.replace('_', ' ')} of each run")
+        mean, half, diff, diff_half = (np.full(len(grids), np.nan) for _ in range(4))
+        for g, grid in enumerate(grids):
+            row = table[g][np.isfinite(table[g])]
+            mean[g], half[g] = mean_ci(list(row)) if row.size else (np.nan, np.nan)
+            both = np.isfinite(table[g]) & np.isfinite(table[-1])
+            if grid != finest and np.count_nonzero(both) > 1:
+                diff[g], diff_half[g] = mean_ci(list(table[g][both] - table[-1][both]))
+        data[f"{name}_mean"] = var(mean, ("grid",), units, f"mean of {name.replace('_', ' ')} over the tracks")
+        data[f"{name}_ci95"] = var(half, ("grid",), units, "half-width of its 95 % confidence interval (t)")
+        data[f"{name}_paired"] = var(diff, ("grid",), units, f"paired difference to {finest[0]} x {finest[1]}")
+        data[f"{name}_paired_ci95"] = var(diff_half, ("grid",), units, "half-width of the paired difference's 95 % CI")
+    commits = sorted({r.get("git_commit", "unrecorded") for runs in by_grid.values() for r in runs.values()})
+    attrs = base_attrs("Scene 2: the default run's statistics against the grid, track by track")
+    attrs.update(
+        product="statistics_grid",
+        scene_file=str(SCENE.relative_to(ROOT)),
+        run_commits=", ".join(commits),
+        command="python bench/statistics_grid.py --report -o RUNS.jsonl --netcdf FILE.nc",
+    )
+    coords = {
+        "nx": ("grid", np.array([g[0] for g in grids]), {"long_name": "nodes along the slider", "units": "1"}),
+        "ny": ("grid", np.array([g[1] for g in grids]), {"long_name": "nodes across the slider", "units": "1"}),
+        "realization": ("realization", np.array(seeds), {"long_name": "track seed (disk.seed)", "units": "1"}),
+    }
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def figure(ds, path: Path) -> None:
+    """Each measure against the grid: the tracks (grey, joined by seed) and the mean with its 95 % interval."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(MEASURES), figsize=(4.2 * len(MEASURES), 3.8), constrained_layout=True)
+    x = ds["nx"].values
+    for ax, (name, scale, unit), letter in zip(axes, MEASURES, "abcd", strict=True):
+        table = ds[name].values * scale
+        for k in range(table.shape[1]):
+            ok = np.isfinite(table[:, k])
+            ax.plot(x[ok], table[ok, k], color="0.75", lw=0.8, marker=".", ms=3)
+        ax.errorbar(x, ds[f"{name}_mean"].values * scale, yerr=ds[f"{name}_ci95"].values * scale, fmt="o",
+                    color="C1", capsize=4, label="mean, 95 % CI")  # fmt: skip
+        ax.set_xlabel("nodes along the slider (nx)")
+        ax.set_ylabel(f"{name.replace('_', ' ')} [{unit}]")
+        ax.set_xticks(x)
+        ax.set_title(f"({letter})", loc="left")
+        if name == "mean_contact_force":
+            ax.set_yscale("symlog", linthresh=0.1)
+    axes[0].legend(loc="best", fontsize=8)
+    fig.suptitle("Scene 2: the default run against the grid (grey: one track, the same seed on every grid)")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--grids", default="121x101,241x201", help="NXxNY,... (default: 121x101,241x201)")
     parser.add_argument("--seeds", default="1-8", help="track seeds, '1-8' or '1,2,5'")
     parser.add_argument("-o", "--out", type=Path, default=Path("statistics_grid.jsonl"))
     parser.add_argument("--report", action="store_true", help="only print the table of the runs in --out")
+    parser.add_argument("--netcdf", type=Path, help="write the runs and their statistics to this netCDF file")
+    parser.add_argument("--figure", type=Path, help="draw them into this PNG")
     args = parser.parse_args()
     if not args.report:
         grids = [tuple(int(v) for v in g.split("x")) for g in args.grids.split(",")]
         run(grids, parse_range(args.seeds), args.out)
     report(args.out)
+    if args.netcdf or args.figure:
+        ds = dataset(args.out)
+        if args.netcdf:
+            from pipeline.data.netcdf import write_netcdf
+
+            print(f"wrote {write_netcdf(ds, args.netcdf)}")
+        if args.figure:
+            figure(ds, args.figure)
+            print(f"wrote {args.figure}")
 
 
 if __name__ == "__main__":
