@@ -40,11 +40,29 @@ MEASURES = (
 
 
 def parse_range(text: str) -> list[int]:
-    """'1-4' or '1,3,5' -> the seeds."""
-    if "-" in text:
-        lo, hi = (int(v) for v in text.split("-"))
-        return list(range(lo, hi + 1))
-    return [int(v) for v in text.split(",")]
+    """'1-4' or '1,3,5' -> the seeds; anything else is an error naming the option."""
+    try:
+        if "-" in text:
+            lo, hi = (int(v) for v in text.split("-"))
+            seeds = list(range(lo, hi + 1))
+        else:
+            seeds = [int(v) for v in text.split(",")]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0:
+        raise SystemExit(f"--seeds {text!r} is not allowed: a range 'LO-HI' or a list '1,3,5' of seeds >= 0")
+    return seeds
+
+
+def parse_grids(text: str) -> list[tuple[int, int]]:
+    """'121x101,241x201' -> [(121, 101), (241, 201)]; anything else is an error naming the option."""
+    try:
+        grids = [tuple(int(v) for v in g.split("x")) for g in text.split(",")]
+    except ValueError:
+        grids = []
+    if not grids or any(len(g) != 2 or min(g) < 11 for g in grids):
+        raise SystemExit(f"--grids {text!r} is not allowed: NXxNY,... with at least 11 nodes each (e.g. 121x101)")
+    return grids
 
 
 def run(grids: list[tuple[int, int]], seeds: list[int], out: Path) -> None:
@@ -85,7 +103,7 @@ def mean_ci(values: list[float]) -> tuple[float, float]:
 def report(path: Path) -> None:
     by_grid = grouped(path)
     if not by_grid:
-        raise SystemExit(f"{path}: no finished runs")
+        raise SystemExit(f"{path}: no finished runs (is it a file this script wrote with -o?)")
     finest = max(by_grid)
     for name, scale, unit in MEASURES:
         print(name)
@@ -195,8 +213,7 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, help="draw them into this PNG")
     args = parser.parse_args()
     if not args.report:
-        grids = [tuple(int(v) for v in g.split("x")) for g in args.grids.split(",")]
-        run(grids, parse_range(args.seeds), args.out)
+        run(parse_grids(args.grids), parse_range(args.seeds), args.out)
     report(args.out)
     if args.netcdf or args.figure:
         ds = dataset(args.out)
