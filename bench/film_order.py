@@ -73,6 +73,9 @@ def scene_data(face: str, rect_step: bool, nx: int, ny: int, delta_gamma: float 
     elif face != "default":
         raise SystemExit(f"--face {face!r} is not allowed: default, keep:NAME|NAME or pad-to-edge")
     if rect_step or unfitted_step:
+        if not any(r["name"] == "trailing step" for r in regions):
+            flag = "--unfitted-step" if unfitted_step else "--rect-step"
+            raise SystemExit(f"{flag} with --face {face!r}: the face has no region named 'trailing step' to replace")
         x0, x1, y0, y1 = RECT_STEP
         for r in regions:
             if r["name"] == "trailing step":
