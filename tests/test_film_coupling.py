@@ -102,6 +102,9 @@ def test_film_step_derivatives_linearize_the_film_step():
     roll in turn): the remainder relative to K_f dq halves with delta
     (measured on the sampled face 2.9, 1.4, 0.71, 0.34 % for z; 3.2-0.36 % pitch; 1.0-0.12 % roll,
     the pressure's 5.7-0.68 %; on the fitted face, which flies lower, the z pressure's 15.8, 8.5, 4.3, 2.1 %).
+    Since the force's link profiles take the end attitude (the force is second order in time), the pitch force's
+    remainder falls faster than dq^2 at first: 4.9, 1.8, 0.59, 0.28 % (ratios 2.7, 3.1, 2.1; its cubic term is
+    0.24 % of K dq at 10 pm by central differences), so the check is that the remainder falls at least like dq^2.
     """
     scene = chen_bogy(COARSE | {"disk.rms": 0.0, "initial.zdot": -0.002, "numerics.film_coupling": "linearized"})
     film = AbsFilm(scene)
@@ -130,7 +133,7 @@ def test_film_step_derivatives_linearize_the_film_step():
             pressure_errors.append(np.max(np.abs(film.P - P_path - linear_P)) / np.max(np.abs(linear_P)))
         for errors in (force_errors, pressure_errors):
             ratios = np.array(errors[:-1]) / np.array(errors[1:])
-            assert np.all((ratios > 1.7) & (ratios < 2.3)), (k, errors)
+            assert np.all((ratios > 1.7) & (ratios < 3.5)), (k, errors)
             assert errors[-1] < 0.05, (k, errors)
 
 
