@@ -70,6 +70,19 @@ SETTINGS = (
         1.0,
     ),
     ("linearized 2 dt", "the default coupling at twice the time step", {"numerics.film_coupling": "linearized"}, 2.0),
+    (
+        "split 2 dt",
+        "twice the time step with rho_inf 0.9, split to omega_c h <= 0.5 in contact (at most 4 substeps), the film's "
+        "derivatives refreshed every 50 steps (the same 5 us as the default's 100)",
+        {
+            "numerics.film_coupling": "linearized",
+            "numerics.rho_infinity": 0.9,
+            "numerics.contact_omega_dt": 0.5,
+            "numerics.contact_splits": 2,
+            "numerics.film_jacobian_every": 50,
+        },
+        2.0,
+    ),
 )
 #: The fine reference of the accuracy runs (not timed): the default at half its time step.
 REFERENCE = (

@@ -68,6 +68,13 @@ t_n -> t_n+1:
   coupling alone (no S, K_f) is unstable at the default step: the pad's film
   stiffness gives omega^2 dt^2 = 1.03 (measured K_f = 4.7e6 N/m in z).
 
+``numerics.contact_omega_dt`` > 0 splits a step of dt into 2^j equal substeps (j <= ``numerics.contact_splits``)
+where the surface forces' stiffness K_s needs it: omega_c h <= contact_omega_dt with omega_c^2 the largest
+eigenvalue of M^-1 K_s, at the step's start and at every substep's end (a substep whose end needs more is taken
+back and the rest of the step redone finer; out of contact omega_c = 0).  The samples stay on the grid of dt.  On
+the stiff landing at dt 0.2 us and rho 0.8, E_after / E_before is 1.73 with fixed steps and 0.9985 split to
+omega_c h <= 0.5 (0.9996 at fixed dt / 8).
+
 The surface stiffness (asperities: 1e7-1e9 N/m) is far above the film's,
 and the implicit treatment keeps the step stable with dt set by the film
 and the disk's features, not by the contact.
@@ -81,6 +88,7 @@ states, series, ``status``, ``message`` and work counters).
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -187,6 +195,7 @@ class AbsStepper:
         )
         self.status = "running"
         self.newton = self.substeps = self.halvings = self.film_repasses = self.jacobian_refreshes = 0
+        self.contact_substeps = self.contact_redos = 0
         self.residual = 0.0
         self.a_prev, self.h_prev = None, 0.0  # the acceleration and size of the last accepted step
 
@@ -197,6 +206,28 @@ class AbsStepper:
             self.status = "failed"
             return message
         return None
+
+    def snapshot(self) -> tuple:
+        """What :meth:`restore` needs to take back the steps taken since (the film's pressure is copied)."""
+        return (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev,
+                self.film.P.copy())  # fmt: skip
+
+    def restore(self, saved: tuple) -> None:
+        """Return to the state of :meth:`snapshot` (the film's derivatives are refreshed at the next size)."""
+        (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev, P) = saved
+        self.film.P[:] = P
+        self.film.set_disk(self.zd)
+        self.jacobian_h = 0.0
+
+    def contact_omega(self) -> float:
+        """omega_c [rad/s]: the largest eigenvalue of M^-1 K_s, K_s = -d f_surface / d q at the present state.
+
+        0 out of contact (the adhesion alone is a softening spring, not resolved by the step size).
+        """
+        if self.sf.contact <= 0.0:
+            return 0.0
+        lam = float(np.max(np.linalg.eigvals(-self.m_inv @ self.sf.dfdq).real))
+        return math.sqrt(lam) if lam > 0.0 else 0.0
 
     def _advance(self, h: float, depth: int) -> str:
         """Advance by h; on a failed film or Newton solve, restore the film and take two halves.  "" on success."""
@@ -450,6 +481,42 @@ class _Samples:
         self.k += 1
 
 
+def contact_splits_needed(omega: float, dt: float, limit: float, most: int) -> int:
+    """Fewest halvings j <= most of dt with omega dt / 2^j <= limit."""
+    if omega * dt <= limit:
+        return 0
+    return min(most, math.ceil(math.log2(omega * dt / limit)))
+
+
+def contact_split_step(stepper: AbsStepper, t0: float, dt: float, limit: float, most: int) -> str | None:
+    """Advance from t0 by dt in 2^j equal substeps, j set by the contact's frequency (``numerics.contact_omega_dt``).
+
+    j is the fewest halvings with omega_c h <= limit at the start (:meth:`AbsStepper.contact_omega`); a substep
+    whose end needs more is taken back and the rest of the step redone with them (the substeps already taken
+    stay: the step never coarsens within dt, so it ends on t0 + dt).  Out of contact (omega_c = 0) one step of
+    dt.  None, or the message of a failed substep.
+    """
+    j = contact_splits_needed(stepper.contact_omega(), dt, limit, most)
+    k = 0  # substeps of dt / 2^j taken
+    while k < 2**j:
+        h = dt / 2**j
+        stepper.t = t0 + k * h
+        saved = stepper.snapshot() if j < most else None
+        failure = stepper.step(h)
+        if failure:
+            return failure
+        j_end = contact_splits_needed(stepper.contact_omega(), dt, limit, most)
+        if j_end > j and saved is not None:
+            stepper.restore(saved)
+            stepper.contact_redos += 1
+            k, j = k << (j_end - j), j_end
+            continue
+        k += 1
+        if j:
+            stepper.contact_substeps += 1
+    return None
+
+
 def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None) -> AbsResult:
     """Integrate one run from steady flight over the moving track; never raises for a physical failure.
 
@@ -478,7 +545,10 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
     n = -1
     for n in range(n_steps):
         stepper.t = n * dt  # on the grid: no round-off accumulates over the run
-        failure = stepper.step(dt)
+        if num.contact_omega_dt > 0.0:
+            failure = contact_split_step(stepper, n * dt, dt, num.contact_omega_dt, num.contact_splits)
+        else:
+            failure = stepper.step(dt)
         if failure:
             status, message = -1, failure
             break
@@ -492,6 +562,8 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         "reynolds_solves": film.reynolds_solves,
         "film_repasses": stepper.film_repasses,
         "film_jacobians": stepper.jacobian_refreshes,
+        "contact_substeps": stepper.contact_substeps,
+        "contact_redos": stepper.contact_redos,
         "nodes": grid.x.size * grid.y.size,
         "wall_time": time.perf_counter() - wall0,
     }

@@ -367,6 +367,17 @@ class AbsNumerics(Section):
         lo=0.0,
         hi=1.0,
     )
+    contact_omega_dt: float = quantity(
+        0.0,
+        "1",
+        "largest omega_c h of a step, omega_c the frequency of the surface forces' stiffness on the slider "
+        "(its largest eigenvalue of M^-1 K): a step of dt is split into 2^j equal substeps (j <= contact_splits) "
+        "where the contact needs it, at its start or at a substep's end (then redone finer); 0: fixed steps of dt",
+        lo=0.0,
+    )
+    contact_splits: int = quantity(
+        3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
+    )
     newton_tol: float = quantity(
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
     )
