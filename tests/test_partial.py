@@ -174,28 +174,41 @@ def landing(overrides: dict) -> tuple[AbsResult, float]:
     return result, kinetic[-1] / kinetic[0]
 
 
+FIXED = {"numerics.contact_omega_dt": 0.0}
+
+
 @pytest.mark.jitless
 @pytest.mark.parametrize(
-    ("rho", "steps"), [(0.0, (0.2e-6, 0.1e-6, 0.05e-6)), (None, (0.1e-6, 0.05e-6, 0.025e-6))], ids=["rho0", "default"]
+    ("numerics", "steps", "finer_loses_less"),
+    [
+        (FIXED | {"numerics.rho_infinity": 0.0}, (0.2e-6, 0.1e-6, 0.05e-6), True),
+        (FIXED | {"numerics.rho_infinity": 0.5}, (0.1e-6, 0.05e-6, 0.025e-6), True),
+        ({}, (0.1e-6, 0.05e-6, 0.025e-6), False),
+        ({"numerics.rho_infinity": 0.0}, (0.1e-6, 0.05e-6, 0.025e-6), False),
+    ],
+    ids=["rho0 fixed", "rho0.5 fixed", "default", "rho0 split"],
 )
-def test_stiff_landing_creates_no_energy(rho, steps):
+def test_stiff_landing_creates_no_energy(numerics, steps, finer_loses_less):
     """chen_bogy2007's trailing pad landing at 1 mm/s on real asperities (no air, no suspension): no energy created.
 
-    The contact (1e14 summits/m2) lasts about one step; a dissipative generalized-alpha step (rho_infinity < 1)
-    dissipates what it cannot resolve.  Measured E_after / E_before: rho_infinity = 0: 0.84, 0.86, 0.90, 0.96
-    at dt = 0.2, 0.1, 0.05, 0.025 us; the default rho_infinity = 0.5: 1.41 (it created 41 % at 0.2 us, which is
-    why its step stays at or below 0.1 us), 0.965, 0.986, 0.996; the trapezoidal rule (rho_infinity = 1): 1.75,
-    0.992, 0.998, 1.0002.  Checked here: rho 0 over 0.2-0.05 us, the default over 0.1-0.025 us.
+    The contact (1e14 summits/m2) lasts about one step of 0.2 us.  With fixed steps a dissipative generalized-alpha
+    step (rho_infinity < 1) dissipates what it cannot resolve.  Measured E_after / E_before with fixed steps:
+    rho_infinity = 0: 0.84, 0.86, 0.90, 0.96 at dt = 0.2, 0.1, 0.05, 0.025 us; rho_infinity = 0.5 (the default
+    until November 2026): 1.41 (it created 41 % at 0.2 us), 0.965, 0.986, 0.996; rho 0.9: 0.977 at 0.1 us, 1.007 at
+    0.05 us; the trapezoidal rule (rho_infinity = 1): 1.75, 0.992, 0.998, 1.0002.  The default (rho 0.9, contact
+    substeps to omega_c h <= 0.5, at most 4): 0.99934, 0.99962, 0.99372 at 0.1, 0.05, 0.025 us (1.0071 at 0.2 us,
+    where 4 substeps are too few).  Split with rho 0: 0.938, 0.986, 0.972; before the substeps kept their size
+    through a contact and restarted the acceleration at a change of size, 1.0236 and 1.0275 at 0.1 and 0.05 us.
     """
     ratios = []
     for dt in steps:
-        rho_set = {} if rho is None else {"numerics.rho_infinity": rho}
-        result, ratio = landing(rho_set | {"numerics.dt": dt, "numerics.output_interval": dt})
+        result, ratio = landing(numerics | {"numerics.dt": dt, "numerics.output_interval": dt})
         contact = result.series["contact_force"]
         assert contact.max() > 0.0 and contact[-1] == 0.0
         ratios.append(ratio)
     assert max(ratios) <= 1.0 + 1e-12 and min(ratios) > 0.5, ratios
-    assert ratios[-1] > ratios[0], ratios
+    if finer_loses_less:
+        assert ratios[-1] > ratios[0], ratios
 
 
 @pytest.mark.jitless
@@ -203,13 +216,13 @@ def test_contact_substeps_resolve_the_stiff_landing():
     """Steps split where the contact's frequency needs it (numerics.contact_omega_dt) create no energy at 0.2 us.
 
     With fixed steps of 0.2 us the landing leaves with 1.73 times its kinetic energy (rho_inf = 0.8); split to
-    omega_c h <= 0.5 (at most dt / 8) it keeps 0.9985 of it, within 2e-3 of fixed steps of dt / 8 throughout, and
-    only the steps in contact are split.  Measured: 1.7321; 0.9985 (8 substeps, 1 redone) against 0.9996.
+    omega_c h <= 0.5 (at most dt / 8) it keeps 0.9993 of it, within 2e-3 of fixed steps of dt / 8 throughout, and
+    only the steps in contact are split.  Measured: 1.7321; 0.99929 (8 substeps, 1 redone) against 0.99919.
     """
-    base = {"numerics.rho_infinity": 0.8, "numerics.output_interval": 0.2e-6}
-    fixed, ratio_fixed = landing(base | {"numerics.dt": 0.2e-6})
+    base = {"numerics.rho_infinity": 0.8, "numerics.output_interval": 0.2e-6, "numerics.contact_splits": 3}
+    fixed, ratio_fixed = landing(base | FIXED | {"numerics.dt": 0.2e-6})
     split, ratio_split = landing(base | {"numerics.dt": 0.2e-6, "numerics.contact_omega_dt": 0.5})
-    fine, ratio_fine = landing(base | {"numerics.dt": 0.025e-6})
+    fine, ratio_fine = landing(base | FIXED | {"numerics.dt": 0.025e-6})
     assert ratio_fixed > 1.5, ratio_fixed
     assert ratio_split <= 1.0 + 1e-4 and abs(ratio_split - ratio_fine) < 2e-3, (ratio_split, ratio_fine)
     work = split.work

@@ -347,9 +347,10 @@ class AbsNumerics(Section):
         choices=("fitted", "cut", "sampled"),
     )
     dt: float = quantity(
-        0.05e-6,
+        0.1e-6,
         "s",
-        "time step (resolves the second pitch mode: 729 kHz, omega dt = 0.23 on chen_bogy2007; hdi fly --modes)",
+        "time step (resolves the second pitch mode: 729 kHz, omega dt = 0.46 on chen_bogy2007; hdi fly --modes; "
+        "with rho_infinity 0.9, contact_omega_dt 0.5 and film_jacobian_every 50: README, 'Scene 2 benchmark')",
         lo=0.0,
         lo_open=True,
     )
@@ -360,7 +361,7 @@ class AbsNumerics(Section):
         lo=0.0,
     )  # fmt: skip
     rho_infinity: float = quantity(
-        0.5,
+        0.9,
         "1",
         "generalized-alpha spectral radius at infinite frequency (1: trapezoidal Newmark, no numerical damping; "
         "< 1 damps the unresolved contact modes, and adds damping to the resolved ones: hdi fly --modes)",
@@ -368,7 +369,7 @@ class AbsNumerics(Section):
         hi=1.0,
     )
     contact_omega_dt: float = quantity(
-        0.0,
+        0.5,
         "1",
         "largest omega_c h of a step, omega_c the frequency of the surface forces' stiffness on the slider "
         "(its largest eigenvalue of M^-1 K): a step of dt is split into 2^j equal substeps (j <= contact_splits) "
@@ -376,7 +377,7 @@ class AbsNumerics(Section):
         lo=0.0,
     )
     contact_splits: int = quantity(
-        3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
+        2, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
     )
     newton_tol: float = quantity(
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
@@ -390,7 +391,7 @@ class AbsNumerics(Section):
         choices=FILM_COUPLINGS,
     )
     film_jacobian_every: int = quantity(
-        100, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
+        50, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
     )
     film_repass: float = quantity(
         1.0e-10,
