@@ -95,3 +95,16 @@ def test_quick_scene2_bench_writes_its_table_and_figure(tmp_path):
     assert list(ds["setting"].values)[-1] == "default dt/4"
     assert np.all(ds["bouncing_3sigma_ci"].values > 0) and float(ds["mean_flying_height_diff"][-1]) == 0.0
     assert png.stat().st_size > 10_000
+
+
+def test_every_scene2_setting_loads_with_samples_on_its_own_step():
+    """Each bench setting (and the reference) is a valid scene: dt scaled, the output interval a multiple of it."""
+    from pipeline.bench.abs import REFERENCE, SETTINGS, setting_overrides
+    from pipeline.config import load_scene
+
+    for name, _, overrides, factor in (*SETTINGS, REFERENCE):
+        scene = load_scene(str(SCENE2_FILE), setting_overrides(str(SCENE2_FILE), {}, overrides, factor))
+        num = scene.numerics
+        assert num.dt == pytest.approx(load_scene(str(SCENE2_FILE)).numerics.dt * factor, rel=1e-12), name
+        assert abs(num.output_interval / num.dt - round(num.output_interval / num.dt)) < 1e-9, name
+        assert abs(num.output_interval - 0.5e-6) <= 0.5 * num.dt, name

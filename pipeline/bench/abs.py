@@ -140,9 +140,12 @@ def run_bench(args: argparse.Namespace) -> int:
 
 
 def setting_overrides(scene_path: str, run: dict[str, Any], overrides: dict[str, Any], dt_factor: float):
-    """A setting's overrides on top of ``run``: its own, and dt (and the output interval) scaled by dt_factor."""
-    dt = load_scene(scene_path, run).numerics.dt * dt_factor
-    return {**run, **overrides, "numerics.dt": dt}
+    """A setting's overrides on top of ``run``: its own, and dt scaled by dt_factor, with the output interval the
+    nearest whole multiple of it to the scene's (0.4 us at dt 0.2 us for the scene's 0.5)."""
+    numerics = load_scene(scene_path, run).numerics
+    dt = numerics.dt * dt_factor
+    interval = max(1, round(numerics.output_interval / dt)) * dt
+    return {**run, **overrides, "numerics.dt": dt, "numerics.output_interval": interval}
 
 
 def time_settings(scene_path: str, run: dict[str, Any], repeats: int, baseline_ref: str) -> dict[str, Any]:
