@@ -162,10 +162,6 @@ class AbsStepper:
         self.K, self.C = stiffness_damping(scene)
         self.f_static = static_forces(scene)
         self.q_ref = steady.q.copy()
-        rho = num.rho_infinity
-        self.alpha_m, self.alpha_f = (2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0)
-        self.gamma = 0.5 - self.alpha_m + self.alpha_f
-        self.beta = 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
         self.use_air = scene.models.air_bearing == "reynolds"
         self.newton_max_iter = num.newton_max_iter
         self.tol = num.newton_tol * max(scene.suspension.preload, MIN_FORCE_SCALE)
@@ -179,8 +175,7 @@ class AbsStepper:
         self.newton_kernel = surface.law == "greenwood_williamson"
         self.damping_ratio = scene.contact.damping_ratio
         self.m_inv = np.linalg.inv(self.M)
-        self.scheme = (self.M, self.C, self.K, self.q_ref, self.f_static, self.weights, self.alpha_m, self.alpha_f,
-                       self.gamma, self.beta)  # fmt: skip
+        self.set_rho(num.rho_infinity)
         self.controls = (self.tol, FORCE_ROUND_OFF, self.newton_max_iter, MAX_BACKTRACKS, MIN_DAMPING)
         s = scene.slider
         corners_x = np.array([0.0, s.length, s.length, 0.0]) - s.pivot_x
@@ -197,10 +192,19 @@ class AbsStepper:
         self.restart_acceleration()
         self.status = "running"
         self.newton = self.substeps = self.halvings = self.film_repasses = self.jacobian_refreshes = 0
-        self.contact_substeps = self.contact_redos = 0
+        self.contact_substeps = self.contact_redos = self.damped_substeps = 0
         self.contact_level = 0  # halvings of the last step (contact_split_step: no coarsening while in contact)
         self.residual = 0.0
         self.a_prev, self.h_prev = None, 0.0  # the acceleration and size of the last accepted step
+
+    def set_rho(self, rho: float) -> None:
+        """The generalized-alpha parameters of spectral radius rho at infinite frequency (Chung & Hulbert)."""
+        self.rho = rho
+        self.alpha_m, self.alpha_f = (2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0)
+        self.gamma = 0.5 - self.alpha_m + self.alpha_f
+        self.beta = 0.25 * (1.0 - self.alpha_m + self.alpha_f) ** 2
+        self.scheme = (self.M, self.C, self.K, self.q_ref, self.f_static, self.weights, self.alpha_m, self.alpha_f,
+                       self.gamma, self.beta)  # fmt: skip
 
     def restart_acceleration(self) -> None:
         """a = M^-1 f(t, q, v), the physical acceleration, as at the start of a run.
@@ -225,11 +229,12 @@ class AbsStepper:
     def snapshot(self) -> tuple:
         """What :meth:`restore` needs to take back the steps taken since (the film's pressure is copied)."""
         return (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev,
-                self.film.P.copy())  # fmt: skip
+                self.film.P.copy(), self.rho)  # fmt: skip
 
     def restore(self, saved: tuple) -> None:
         """Return to the state of :meth:`snapshot` (the film's derivatives are refreshed at the next size)."""
-        (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev, P) = saved
+        (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev, P, rho) = saved
+        self.set_rho(rho)
         self.film.P[:] = P
         self.film.set_disk(self.zd)
         self.jacobian_h = 0.0
@@ -503,7 +508,9 @@ def contact_splits_needed(omega: float, dt: float, limit: float, most: int) -> i
     return min(most, math.ceil(math.log2(omega * dt / limit)))
 
 
-def contact_split_step(stepper: AbsStepper, t0: float, dt: float, limit: float, most: int) -> str | None:
+def contact_split_step(
+    stepper: AbsStepper, t0: float, dt: float, limit: float, most: int, rho: float, rho_contact: float
+) -> str | None:
     """Advance from t0 by dt in 2^j equal substeps, j set by the contact's frequency (``numerics.contact_omega_dt``).
 
     j is the fewest halvings with omega_c h <= limit at the start (:meth:`AbsStepper.contact_omega`); a substep
@@ -513,28 +520,46 @@ def contact_split_step(stepper: AbsStepper, t0: float, dt: float, limit: float, 
     one step of dt.  The substep size changes only where the surface force is smooth: coarsening as an
     asperity contact unloads, with the generalized-alpha acceleration a_n lagging over the finer substeps,
     created energy (the stiff landing at dt 0.05 us and rho_inf 0: E_after / E_before 1.0275 split, 0.899 with
-    fixed steps and 0.989 at fixed dt / 4).  None, or the message of a failed substep.
+    fixed steps and 0.989 at fixed dt / 4).  A substep whose contact is too stiff for it even at the finest size
+    (omega_c h > limit at its start or its end, with j = most) takes the spectral radius ``rho_contact`` instead of
+    ``rho`` (taken back and redone with it when only its end is), to damp the modes it cannot resolve; the
+    acceleration restarts at every change of rho.  None, or the message of a failed substep.
     """
     omega = stepper.contact_omega()
     j = contact_splits_needed(omega, dt, limit, most)
     if omega > 0.0:
         j = max(j, stepper.contact_level)
     k = 0  # substeps of dt / 2^j taken
+    damp_next = False  # the substep is redone with rho_contact: its end was unresolved
     while k < 2**j:
         h = dt / 2**j
         stepper.t = t0 + k * h
-        saved = stepper.snapshot() if j < most else None
-        if stepper.h_prev > 0.0 and not math.isclose(h, stepper.h_prev, rel_tol=1e-9):
+        unresolved = damp_next or omega * h > limit
+        may_redo = j < most or (not unresolved and rho_contact != rho)
+        saved = stepper.snapshot() if may_redo else None
+        rho_h = rho_contact if unresolved else rho
+        if rho_h != stepper.rho:
+            stepper.set_rho(rho_h)
+            stepper.restart_acceleration()
+        elif stepper.h_prev > 0.0 and not math.isclose(h, stepper.h_prev, rel_tol=1e-9):
             stepper.restart_acceleration()
         failure = stepper.step(h)
         if failure:
             return failure
-        j_end = contact_splits_needed(stepper.contact_omega(), dt, limit, most)
-        if j_end > j and saved is not None:
+        omega = stepper.contact_omega()
+        j_end = contact_splits_needed(omega, dt, limit, most)
+        if j_end > j and saved is not None and j < most:
             stepper.restore(saved)
             stepper.contact_redos += 1
-            k, j = k << (j_end - j), j_end
+            k, j, damp_next = k << (j_end - j), j_end, False
             continue
+        if saved is not None and not unresolved and rho_contact != rho and omega * h > limit:
+            stepper.restore(saved)
+            stepper.contact_redos += 1
+            damp_next = True
+            continue
+        damp_next = False
+        stepper.damped_substeps += unresolved
         k += 1
         if j:
             stepper.contact_substeps += 1
@@ -571,7 +596,8 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
     for n in range(n_steps):
         stepper.t = n * dt  # on the grid: no round-off accumulates over the run
         if num.contact_omega_dt > 0.0:
-            failure = contact_split_step(stepper, n * dt, dt, num.contact_omega_dt, num.contact_splits)
+            failure = contact_split_step(stepper, n * dt, dt, num.contact_omega_dt, num.contact_splits,
+                                         num.rho_infinity, num.rho_infinity_contact)  # fmt: skip
         else:
             failure = stepper.step(dt)
         if failure:
@@ -589,6 +615,7 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         "film_jacobians": stepper.jacobian_refreshes,
         "contact_substeps": stepper.contact_substeps,
         "contact_redos": stepper.contact_redos,
+        "contact_damped": stepper.damped_substeps,
         "nodes": grid.x.size * grid.y.size,
         "wall_time": time.perf_counter() - wall0,
     }

@@ -11,7 +11,8 @@ from .params import ABS_SECTIONS, SERIES, AbsScene
 #: its RMS, so the track's realisation and correlation are free).
 STEADY_FREE = {
     "initial": None,
-    "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity", "contact_omega_dt",
+    "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity", "rho_infinity_contact",
+                 "contact_omega_dt",
                  "contact_splits", "film_coupling", "film_jacobian_every", "film_repass",
                  "newton_tol", "newton_max_iter", "contact_threshold"),
     "disk": ("correlation_length", "acf", "seed", "profile_file", "profile_spacing"),

@@ -379,6 +379,15 @@ class AbsNumerics(Section):
     contact_splits: int = quantity(
         2, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
     )
+    rho_infinity_contact: float = quantity(
+        0.0,
+        "1",
+        "spectral radius of the substeps whose contact is stiffer than the finest substep resolves (omega_c h > "
+        "contact_omega_dt at contact_splits halvings): damps the contact modes the step cannot resolve, which a "
+        "near-trapezoidal step feeds (a pad held down by adhesion bounced by tens of nm)",
+        lo=0.0,
+        hi=1.0,
+    )
     newton_tol: float = quantity(
         1.0e-10, "1", "Newton tolerance of the implicit contact solve (force / preload)", lo=0.0, lo_open=True
     )
