@@ -96,6 +96,7 @@ class AbsFilm:
         self._seg = (np.zeros((3, cx.seg_theta.size)), np.zeros((3, cy.seg_theta.size)))  # cut_corrections' scratch
         self._edges = (self._edge_links(0, cx.face), self._edge_links(1, cy.face))
         self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
+        self._links = self._link_arguments()
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
         self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
         self._pattern = _jacobian_pattern(nx, ny)
@@ -173,32 +174,20 @@ class AbsFilm:
 
     def _link_corrections(self) -> np.ndarray:
         """What the cut links' and edge links' segment profiles change in the node quadrature's integrals of
-        P - 1, -(x - xp)(P - 1) and -(y - yp)(P - 1) (3,) [m2, m3, m3]."""
-        g, c, xp, yp = self.grid, self.cuts, *self.pivot
-        f = mp = mr = 0.0
+        P - 1, -(x - xp)(P - 1) and -(y - yp)(P - 1) (3,) [m2, m3, m3]: :func:`solver.kernels.film.link_corrections`."""
+        return np.array(kf.link_corrections(self.P, *self._links))
+
+    def _link_arguments(self) -> tuple[tuple, tuple]:
+        """Per axis, what :func:`solver.kernels.film.link_corrections` reads besides P: the cut links along the
+        axis, the positions of their segments, the nodes along and across, the strip widths, spacings, bearing
+        number, slip law, arms, scratch, then the edge links and the spacings at their mid-points and nodes."""
+        g, c, (xp, yp) = self.grid, self.cuts, self.pivot
         law = (self.kn, self.h_ref, self.h_switch, self.code)
-        per_axis = (  # the cut links, along-coordinate, nodes along and across, strip widths, spacings, arms
-            (c[0:6], g.cuts_x.seg_x[0], g.x, g.y, self._width_y, self.dx, self.lamx, xp, yp),
-            (c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, yp, xp),
-        )
-        for axis, (links, pos, along, across, width, spacing, lam, arm0, cross0) in enumerate(per_axis):
-            face, ptr, weight, seg_ptr, theta, H = links
-            corrections = []
-            if face.shape[0]:
-                corrections.append(kf.cut_corrections(
-                    self.P, face, ptr, weight, seg_ptr, theta, H, pos, along, across, width, spacing, axis, lam,
-                    *law, arm0, cross0, self._seg[axis],
-                ))  # fmt: skip
-            edges = self._edges[axis]
-            if edges.shape[0]:
-                Hm, He = (self.Hx, self.Hxe) if axis == 0 else (self.Hy, self.Hye)
-                corrections.append(kf.edge_corrections(
-                    self.P, Hm, He, edges, axis, along, across, width, spacing, lam, *law, arm0, cross0
-                ))  # fmt: skip
-            for load, m_along, m_across in corrections:
-                m_pitch, m_roll = (m_along, m_across) if axis == 0 else (m_across, m_along)
-                f, mp, mr = f + load, mp - m_pitch, mr - m_roll
-        return np.array([f, mp, mr])
+        x = (*c[0:6], g.cuts_x.seg_x[0], g.x, g.y, self._width_y, self.dx, self.lamx, *law, xp, yp, self._seg[0],
+             self._edges[0], self.Hx, self.Hxe)  # fmt: skip
+        y = (*c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, *law, yp, xp, self._seg[1],
+             self._edges[1], self.Hy, self.Hye)  # fmt: skip
+        return x, y
 
     def _edge_links(self, axis: int, cut: np.ndarray) -> np.ndarray:
         """The links from the edge of the face along ``axis`` that are not cut links (m, 2): their lower nodes.

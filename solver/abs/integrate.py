@@ -196,6 +196,7 @@ class AbsStepper:
         self.contact_level = 0  # halvings of the last step (contact_split_step: no coarsening while in contact)
         self.residual = 0.0
         self.a_prev, self.h_prev = None, 0.0  # the acceleration and size of the last accepted step
+        self._omega_of, self._omega = None, 0.0  # contact_omega's last surface forces and value
 
     def set_rho(self, rho: float) -> None:
         """The generalized-alpha parameters of spectral radius rho at infinite frequency (Chung & Hulbert)."""
@@ -244,10 +245,13 @@ class AbsStepper:
 
         0 out of contact (the adhesion alone is a softening spring, not resolved by the step size).
         """
-        if self.sf.contact <= 0.0:
+        sf = self.sf
+        if sf.contact <= 0.0:
             return 0.0
-        lam = float(np.max(np.linalg.eigvals(-self.m_inv @ self.sf.dfdq).real))
-        return math.sqrt(lam) if lam > 0.0 else 0.0
+        if sf is not self._omega_of:  # a substep's end is the next one's start: one eigensolve for both
+            lam = float(np.max(np.linalg.eigvals(-self.m_inv @ sf.dfdq).real))
+            self._omega_of, self._omega = sf, math.sqrt(lam) if lam > 0.0 else 0.0
+        return self._omega
 
     def _advance(self, h: float, depth: int) -> str:
         """Advance by h; on a failed film or Newton solve, restore the film and take two halves.  "" on success."""

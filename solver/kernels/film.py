@@ -345,6 +345,34 @@ def edge_corrections(
 
 
 @njit
+def link_corrections(P: np.ndarray, x_links: tuple, y_links: tuple) -> tuple[float, float, float]:
+    """The cut links' and edge links' corrections to the integrals of P - 1, -(x - xp)(P - 1) and -(y - yp)(P - 1)
+    [m2, m3, m3]: :func:`cut_corrections` then :func:`edge_corrections` along x, then along y, summed in that order.
+
+    One call per force evaluation in place of four.  Per axis the links are the tuple (face, piece_ptr, weight,
+    seg_ptr, theta, H, pos, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code, arm0, cross0, seg,
+    edges, Hm, He): the cut links' arguments of :func:`cut_corrections` in its order, then the edge links and
+    the spacings :func:`edge_corrections` reads.
+    """
+    f = mp = mr = 0.0
+    for axis in range(2):
+        links = x_links if axis == 0 else y_links
+        (face, ptr, weight, seg_ptr, theta, H, pos, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code,
+         arm0, cross0, seg, edges, Hm, He) = links  # fmt: skip
+        load, m_along, m_across = cut_corrections(
+            P, face, ptr, weight, seg_ptr, theta, H, pos, nodes, cross, width, spacing, axis, lam, kn, h_ref, h_switch,
+            code, arm0, cross0, seg,
+        )  # fmt: skip
+        e_load, e_along, e_across = edge_corrections(
+            P, Hm, He, edges, axis, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code, arm0, cross0
+        )  # fmt: skip
+        for load_k, along_k, across_k in ((load, m_along, m_across), (e_load, e_along, e_across)):
+            m_pitch, m_roll = (along_k, across_k) if axis == 0 else (across_k, along_k)
+            f, mp, mr = f + load_k, mp - m_pitch, mr - m_roll
+    return f, mp, mr
+
+
+@njit
 def cut_fluxes(
     P: np.ndarray, face_out: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray,
     seg_ptr: np.ndarray, theta: np.ndarray, H: np.ndarray, spacing: np.ndarray, axis: int, lam: float,
