@@ -62,7 +62,7 @@ PREVIOUS_DEFAULT = {"numerics.rho_infinity": 0.5, "numerics.contact_omega_dt": 0
 SETTINGS = (
     (
         "default",
-        "the scene's numerics: dt 0.1 us, rho_inf 0.9, contact substeps to omega_c h <= 0.5 (at most 4), the film's "
+        "the scene's numerics: dt 0.1 us, rho_inf 0.9, contact substeps to omega_c h <= 0.5 (at most 8), the film's "
         "derivatives every 50 steps",
         {},
         1.0,

@@ -39,7 +39,10 @@ doubled with every halving of dt).  The default, rho = 0.9 at dt = 0.1 us,
 adds 6.7e-6 to that mode (rho = 0.5 at 0.05 us, the default until
 November 2026, added 2.2e-4), and leaves the unresolved contact modes to
 contact substeps (below: ``numerics.contact_omega_dt`` = 0.5, at most
-four substeps); the film's derivatives are refreshed every 50 steps (5 us).
+eight substeps: with four, the 80-um trailing pad's sustained contact at dt 0.1 us ran
+in rho-0 substeps and was held down, 3-sigma 0.77-0.86 nm against 2.54-2.63 nm at dt
+0.025 us; README, "Scene 2 results"); the film's derivatives are refreshed every 50
+steps (5 us).
 Over 8 tracks it agrees with dt = 0.025 us on the 3-sigma and the contact
 force within their intervals, and its mean flying height is 13 pm low
 (README, "Scene 2 benchmark").  One step t_n -> t_n+1:

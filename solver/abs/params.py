@@ -377,7 +377,7 @@ class AbsNumerics(Section):
         lo=0.0,
     )
     contact_splits: int = quantity(
-        2, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
+        3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
     )
     rho_infinity_contact: float = quantity(
         0.0,
