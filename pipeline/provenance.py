@@ -14,13 +14,17 @@ PROJECT_ROOT = Path(__file__).resolve().parent.parent
 
 @functools.cache
 def git_commit() -> str:
-    """HEAD commit of the project checkout ('+dirty' if modified), or 'unknown'."""
+    """HEAD commit of the project checkout ('+dirty' if a tracked file outside results/ is modified), or 'unknown'.
+
+    results/ is left out: regenerating the canonical outputs rewrites its tracked files, and a study that runs after
+    another in the same checkout would otherwise call its own code modified.
+    """
     try:
         head = subprocess.run(
             ["git", "rev-parse", "HEAD"], cwd=PROJECT_ROOT, capture_output=True, text=True, timeout=10, check=True
         ).stdout.strip()
         dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"],
+            ["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results"],
             cwd=PROJECT_ROOT,
             capture_output=True,
             text=True,

@@ -67,3 +67,33 @@ def test_the_encoding_refuses_what_cf_cannot_hold():
 def test_every_result_file_passes_the_cf_checker(path):
     assert cf_errors(path) == []
     assert open_result(path).attrs["Conventions"] == "CF-1.8"
+
+
+def test_git_commit_is_dirty_for_modified_code_not_for_regenerated_results(tmp_path, monkeypatch):
+    """A study regenerated after another in the same checkout keeps a clean commit: the outputs in results/ that
+    the first rewrote do not count as modified code (they made every later file '+dirty'); a modified source does."""
+    import subprocess
+
+    from pipeline import provenance
+
+    def git(*args):
+        subprocess.run(["git", *args], cwd=tmp_path, check=True, capture_output=True)
+
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "out.nc").write_text("a")
+    (tmp_path / "code.py").write_text("a")
+    git("init", "-q")
+    git("add", ".")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-q", "-m", "x")
+    monkeypatch.setattr(provenance, "PROJECT_ROOT", tmp_path)
+    provenance.git_commit.cache_clear()
+    try:
+        (tmp_path / "results" / "out.nc").write_text("b")
+        clean = provenance.git_commit()
+        provenance.git_commit.cache_clear()
+        (tmp_path / "code.py").write_text("b")
+        dirty = provenance.git_commit()
+    finally:
+        provenance.git_commit.cache_clear()
+    assert len(clean) == 40 and not clean.endswith("+dirty"), clean
+    assert dirty == clean + "+dirty", dirty
