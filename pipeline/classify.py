@@ -104,8 +104,9 @@ REGIME_FLAGS = {"flag_values": np.arange(len(REGIMES), dtype=np.int8), "flag_mea
 def abs_regime(contact_fraction: float, flies: bool) -> int:
     """The regime of an "abs" run, from its contact fraction after settling and whether the scene flies.
 
-    stuck: the scene has no flying equilibrium (the run started from the flight without adhesion), or the pad
-    is in contact at every sample; sustained contact: in contact at SUSTAINED_FRACTION of the samples or more;
+    stuck: the scene has no equilibrium at all, neither flying nor held up by contact beyond the flying
+    branch's fold (the run started from the flight without adhesion), or the pad is in contact at every
+    sample; sustained contact: in contact at SUSTAINED_FRACTION of the samples or more;
     intermittent contact: in contact at some samples; flying: at none.  A sample is in contact when its
     contact force exceeds ``numerics.contact_threshold``.  -1: no samples (a failed run).
     """
@@ -243,6 +244,7 @@ def abs_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
         "steady_roll": float(steady.q[2]),
         "steady_contact_force": steady.surface.contact,
         "steady_note": steady.note,
+        "steady_branch": steady.branch,
         "series": {"time": result.t.tolist(), **{k: result.series[k].tolist() for k in ABS_SERIES_KEPT}},
         "spectra": _abs_spectra(scene, result),
     }

@@ -87,6 +87,7 @@ def abs_fly(steady: Any, scene: Any, wall: float) -> list[str]:
         f"  fold estimate      {touchdown_text(steady.touchdown_adhesion, scene.suspension.preload)}: the face "
         f"lowered {steady.touchdown_lowering * 1e9:.3f} nm at this pitch and roll to touch (lowest point at eps); "
         "near 1 preload or above, expect no flying equilibrium",
+        *([f"  branch             contact: {steady.branch}"] if steady.branch else []),
         f"  work               grid {nx} x {ny}, {steady.iterations} attitude iterations, "
         f"{steady.reynolds_solves} sparse Reynolds solves, {steady.wall_time:.2f} s",
         *region_table(steady, scene),

@@ -61,12 +61,44 @@ def test_flying_height_and_pitch_fall_monotonically_under_refinement():
     assert all(f.surface.contact < 1e-3 * f_preload and f.surface.adhesion < 0.0 for f in flights)
 
 
+def test_beyond_the_fold_the_contact_branch_holds_the_pad():
+    """delta_gamma = 0.013 on 81 x 67: the flying branch folds below it, and the equilibrium lies beyond the fold.
+
+    Continued through the fold (measured at 0.01238 J/m2, flying height
+    1.973 nm), dg(h) falls on the unstable middle branch and rises again
+    where the asperities' contact stiffens the balance; 0.013 is reached at
+    1.455 nm with 2.65 mN of contact (29.6 s, with the map's runs on both
+    cores).  Before, fly_abs raised "no flying equilibrium" here and a run
+    started from the flight without adhesion.
+    """
+    import re
+
+    scene = chen_bogy({"numerics.nx": 81, "numerics.ny": 67, "contact.delta_gamma": 0.013})
+    steady = fly_abs(scene)
+    assert steady.force_residual < scene.numerics.steady_tol
+    pattern = r"fold of the flying branch at delta_gamma = (\S+) J/m2 \(flying height (\S+) nm\)"
+    found = re.search(pattern, steady.branch)
+    assert found, steady.branch
+    fold, fold_height = float(found.group(1)), float(found.group(2)) * 1e-9
+    assert 0.008 < fold < 0.013
+    # beyond the fold: lower than the fold's flight, and held up by the asperities against more adhesion
+    assert steady.element_spacing < fold_height - 0.2e-9
+    assert steady.surface.contact > 0.1 * scene.suspension.preload
+    assert steady.surface.adhesion < -steady.surface.contact
+    assert steady.note == ""  # an equilibrium of the scene itself: a run starts from it
+
+
+@pytest.mark.slow
 def test_strong_adhesion_reports_the_fold():
-    """delta_gamma = 0.08 on 81 x 67: the branch folds (measured at 0.00999 J/m2) and the error says where.
+    """delta_gamma = 0.08 on 81 x 67: the flying branch folds (measured at 0.01238 J/m2), the branch beyond it,
+    held up by contact, reaches at most 0.0211 J/m2, and the error says so.
 
     fly_start then starts from the flight without adhesion, and its note
-    carries the fold.  Measured 5.7 s for fly_abs.
+    carries the fold.  Measured 82 s for the fly (the continuation goes down the contact branch until its
+    corrector fails at 0.15 nm), with the map's runs on both cores.
     """
+    import re
+
     scene = chen_bogy({"numerics.nx": 81, "numerics.ny": 67, "contact.delta_gamma": 0.08})
     with pytest.raises(AttitudeError, match="no flying equilibrium on the 81 x 67 grid: the fold lies at") as info:
         fly_abs(scene)
@@ -74,6 +106,8 @@ def test_strong_adhesion_reports_the_fold():
     assert 0.008 < fold < 0.08
     assert f"delta_gamma = {fold:.4g} J/m2" in str(info.value)
     assert "beyond it the pad is pulled onto the disk" in str(info.value)
+    most = float(re.search(r"held up by asperity contact reaches at most (\S+) J/m2", str(info.value)).group(1))
+    assert fold < most < 0.08  # the contact branch rises beyond the fold, but not to the scene's adhesion
     # the fold estimate: the pull at touchdown is several preloads (5.5 with the flight's own attitude, 121 x 101)
     ratio = -info.value.touchdown_adhesion / scene.suspension.preload
     assert ratio > 1.0

@@ -64,6 +64,8 @@ def fly_dataset(steady: AbsSteady, scene: AbsScene) -> xr.Dataset:
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(product_attrs(f"Steady flight of scene {scene.name}", scene, "fly"))
+    if steady.branch:
+        ds.attrs["branch"] = f"contact: {steady.branch}"
     return ds
 
 
@@ -99,6 +101,7 @@ def run_dataset(result: AbsResult, scene: AbsScene) -> xr.Dataset:
     ds.attrs.update(product_attrs(f"Partial-contact dynamics of scene {scene.name}", scene, "run"))
     ds.attrs["status_message"] = result.message
     ds.attrs["steady_note"] = result.steady.note
+    ds.attrs["steady_branch"] = result.steady.branch
     ds.attrs["settle_time"] = scene.numerics.settle_time
     return ds
 

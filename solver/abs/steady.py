@@ -39,6 +39,9 @@ class AbsSteady:
     force_residual: float
     wall_time: float
     note: str = ""  # how the start was obtained when the scene itself has no steady flight
+    #: Where the equilibrium lies beyond the fold of the flying branch, on the branch held up by asperity contact:
+    #: that fold and where it is, in words ("" on the flying branch).
+    branch: str = ""
     #: The fold estimate (:meth:`SurfaceModel.touchdown_adhesion`): adhesion force [N] with the face lowered at this
     #: pitch and roll until its lowest patch is at eps, and that lowering [m].
     touchdown_adhesion: float = float("nan")
@@ -330,6 +333,10 @@ class _HeightBalances:
 #: step, and the growth of a step after a corrector that needed at most EASY_STEP iterations.
 HEIGHT_STEP = 0.05e-9
 MIN_HEIGHT_STEP = 1e-13
+#: The smallest step beyond the flying branch's fold [m]: there the corrector fails where the contact branch turns
+#: sharply deep in the asperities (0.16 nm on the default face at delta_gamma 0.08), and each halving costs a failed
+#: corrector.
+MIN_HEIGHT_STEP_BEYOND_FOLD = 1e-12
 MAX_HEIGHT_STEP = 0.1e-9
 CORRECTOR_ITERATIONS = 8
 EASY_STEP = 3
@@ -339,7 +346,7 @@ MIN_ELEMENT_HEIGHT = -1e-9
 
 
 def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wall0: float) -> AbsSteady:
-    """Continue from the flight without adhesion along the flying height until delta_gamma is reached or folds.
+    """Continue from the flight without adhesion along the flying height until delta_gamma is reached.
 
     The flight without adhesion (Newton from the standard guess) starts a
     branch of equilibria (q, dg) parametrized by the element height h:
@@ -347,8 +354,18 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
     give dg(h).  Adhesion grows as the pad comes down; where the branch
     reaches the scene's delta_gamma, Newton at that delta_gamma from the
     interpolated attitude finishes the flight.  Where dg(h) turns back
-    first, its maximum is the fold: no flying equilibrium exists beyond it
-    (the parabola through the three points around the maximum locates it).
+    first, its maximum is the fold of the flying branch (the parabola
+    through the three points around the maximum locates it): no flying
+    equilibrium exists beyond it.  The continuation goes on through the
+    fold, down the unstable middle branch, to where the asperities' contact
+    stiffens the balance and dg(h) rises again: where that contact branch
+    reaches the scene's delta_gamma, the equilibrium is there, held up by
+    contact (``branch`` names the fold).  On the default scene's face,
+    110-um pad at 1.4 gf (121 x 101): the flying branch folds at 0.00516
+    J/m2, dg(h) falls to 0.0048 and rises again, and 0.008 is reached at a
+    flying height of 1.24 nm with 3.5 mN of contact.  Only where the branch
+    goes deep into the asperities (MIN_ELEMENT_HEIGHT) without reaching it
+    is there no equilibrium at all (an :class:`AttitudeError` naming the fold).
     """
     grid = film.grid
     target = scene.contact.delta_gamma
@@ -366,6 +383,8 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
     h = element_spacing(scene, free.q, bal.row)
     branch = [(h, np.array([free.q[1], free.q[2], 0.0]), film.P.copy())]
     dh = HEIGHT_STEP
+    fold: tuple[float, float, np.ndarray] | None = None  # the flying branch's fold: (dg, h, u) once passed
+    fold_index = 0  # the first point of the branch beyond it
     while True:
         h0, u0, P0 = branch[-1]
         if len(branch) > 1:
@@ -378,8 +397,11 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
         u = bal.correct(h0 - dh, guess, CORRECTOR_ITERATIONS)
         if u is None:
             dh *= 0.5
-            if dh < MIN_HEIGHT_STEP:
+            if dh < (MIN_HEIGHT_STEP if fold is None else MIN_HEIGHT_STEP_BEYOND_FOLD):
                 film.P[:] = P_first
+                if fold is not None:
+                    most = max(b[1][2] for b in branch[fold_index:])
+                    raise _fold_error(scene, film, free, bal, fold, first, most, h0)
                 raise AttitudeError(
                     f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the continuation in "
                     f"delta_gamma stopped at {u0[2]:.4g} J/m2 near {_attitude_text(bal.attitude(h0, u0))} "
@@ -400,26 +422,23 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
                 continue
             steady.iterations += iterations + bal.iterations
             steady.wall_time = time.perf_counter() - wall0
+            if fold is not None:
+                steady.branch = (
+                    f"beyond the fold of the flying branch at delta_gamma = {fold[0]:.4g} J/m2 (flying height "
+                    f"{fold[1] * 1e9:.3f} nm): held up by asperity contact ({steady.surface.contact * 1e3:.4g} mN)"
+                )
             return steady
-        if u[2] < u0[2] and len(branch) >= 3:
-            fold, hf = _parabola_peak(*[(b[0], b[1][2]) for b in branch[-3:]])
+        if fold is None and u[2] < u0[2] and len(branch) >= 3:
+            top, hf = _parabola_peak(*[(b[0], b[1][2]) for b in branch[-3:]])
             (ha, ua, _), (hb, ub, _) = branch[-2], branch[-1]
-            uf = ua + (hf - ha) / (hb - ha) * (ub - ua)
-            film.P[:] = P_first
-            touchdown, _ = SurfaceModel(scene, grid).touchdown_adhesion(film.spacing(free.q), bal.sigma)
-            err = AttitudeError(
-                f"no flying equilibrium on the {grid.shape[0]} x {grid.shape[1]} grid: the fold lies at delta_gamma "
-                f"= {fold:.4g} J/m2 (the scene asks {target:g}); beyond it the pad is pulled onto the disk "
-                f"(at the fold: flying height {hf * 1e9:.3f} nm, {_attitude_text(bal.attitude(hf, uf))}; every "
-                f"point of the branch balanced to a force residual below {bal.tol:.0e} preloads; fold estimate: "
-                f"{touchdown_text(touchdown, scene.suspension.preload)} with the face lowered to touch at the pitch "
-                f"and roll of the flight without adhesion; Newton at delta_gamma = {target:g} had failed: {first})"
-            )
-            err.fold_delta_gamma = fold
-            err.touchdown_adhesion = touchdown
-            raise err
+            fold = (top, hf, ua + (hf - ha) / (hb - ha) * (ub - ua))
+            fold_index = len(branch) - 1
+            log.info("fly_abs continuation: the flying branch folds at delta_gamma %.6g J/m2", top)
         if h0 - 2.0 * dh < MIN_ELEMENT_HEIGHT:
             film.P[:] = P_first
+            if fold is not None:
+                most = max(b[1][2] for b in branch[fold_index:])
+                raise _fold_error(scene, film, free, bal, fold, first, most, h0 - dh)
             raise AttitudeError(
                 f"no steady flight found on the {grid.shape[0]} x {grid.shape[1]} grid: the continuation reached "
                 f"deep into the asperities (flying height {(h0 - dh) * 1e9:.3f} nm) at delta_gamma = {u[2]:.4g} "
@@ -427,6 +446,37 @@ def _adhesion_continuation(scene: AbsScene, film: AbsFilm, first: Exception, wal
             )
         if bal.iterations - before <= EASY_STEP:
             dh = min(MAX_HEIGHT_STEP, STEP_GROWTH * dh)
+
+
+def _fold_error(
+    scene: AbsScene,
+    film: AbsFilm,
+    free: AbsSteady,
+    bal: _HeightBalances,
+    fold: tuple,
+    first: Exception,
+    most: float,
+    end: float,
+) -> AttitudeError:
+    """No equilibrium at all: the flying branch folds, and the branch beyond it stays below the scene's
+    delta_gamma down to the flying height ``end`` where the continuation ended (``most``: the largest
+    delta_gamma it reaches beyond the fold)."""
+    grid, target = film.grid, scene.contact.delta_gamma
+    top, hf, uf = fold
+    touchdown, _ = SurfaceModel(scene, grid).touchdown_adhesion(film.spacing(free.q), bal.sigma)
+    err = AttitudeError(
+        f"no flying equilibrium on the {grid.shape[0]} x {grid.shape[1]} grid: the fold lies at delta_gamma "
+        f"= {top:.4g} J/m2 (the scene asks {target:g}); beyond it the pad is pulled onto the disk "
+        f"(at the fold: flying height {hf * 1e9:.3f} nm, {_attitude_text(bal.attitude(hf, uf))}; every "
+        f"point of the branch balanced to a force residual below {bal.tol:.0e} preloads; beyond the fold, down to "
+        f"a flying height of {end * 1e9:.3f} nm, the branch held up by asperity contact reaches at "
+        f"most {most:.4g} J/m2; fold estimate: "
+        f"{touchdown_text(touchdown, scene.suspension.preload)} with the face lowered to touch at the pitch "
+        f"and roll of the flight without adhesion; Newton at delta_gamma = {target:g} had failed: {first})"
+    )
+    err.fold_delta_gamma = top
+    err.touchdown_adhesion = touchdown
+    return err
 
 
 def touchdown_text(force: float, preload: float) -> str:
