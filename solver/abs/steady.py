@@ -211,13 +211,15 @@ def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None)
 
 
 def fly_start(scene: AbsScene, film: AbsFilm | None = None) -> AbsSteady:
-    """The steady flight a run starts from: the scene's own, or, if adhesion leaves none, the one without adhesion.
+    """The steady state a run starts from: the scene's own, or, if adhesion leaves none, the flight without adhesion.
 
-    Strong adhesion (large delta_gamma on a near-contact pad) can remove the
-    flying equilibrium altogether (the film's stiffness cannot hold the
-    attraction's negative stiffness: a fold).  The run then starts from the
-    steady flight with delta_gamma = 0 and the dynamics show where the
-    adhesion takes the slider; ``note`` says so.
+    Strong adhesion (large delta_gamma on a near-contact pad) ends the flying
+    branch at a fold (the film's stiffness cannot hold the attraction's
+    negative stiffness).  :func:`fly_abs` then looks for the equilibrium
+    beyond it, held up by asperity contact (``branch`` says so); only where
+    there is none does the run start from the steady flight with
+    delta_gamma = 0, the dynamics showing where the adhesion takes the
+    slider, and ``note`` says so.
     """
     try:
         return fly_abs(scene, film)
