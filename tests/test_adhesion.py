@@ -42,6 +42,8 @@ GW_COEF = 1e19
 #: The coarsest grid that resolves every region of chen_bogy2007 (as in test_partial.py).
 COARSE = {"numerics.nx": 41, "numerics.ny": 31, "numerics.refine_nodes": 2}
 
+NO_CACHE = (np.empty(0), np.empty(0), np.empty(0), np.empty(0))  # generalized_forces without its cache
+
 
 def asperity(d, sigma, dgamma=DGAMMA):
     """(p_a, dp_a/dd) of the asperity law at separations d [m] with roughness sigma [m]."""
@@ -283,7 +285,7 @@ def test_newton_kernel_and_python_paths_agree(asperity_flight, drop_by):
     python = surface.forces_on(cells, q)
     f, dfdq = np.empty(3), np.empty((3, 3))
     contact, adhesion, in_reach = kernels.generalized_forces(
-        cells.base, cells.sigma, cells.b, cells.area, q, *surface.kernel_law, f, dfdq
+        cells.base, cells.sigma, cells.b, cells.area, q, *surface.kernel_law, f, dfdq, NO_CACHE, kernels.CACHE_OFF
     )
     assert adhesion < 0.0 and in_reach == python.cells > 0
     assert (contact, adhesion) == pytest.approx((python.contact, python.adhesion), rel=1e-12)
@@ -407,3 +409,50 @@ def test_rough_elastic_contact_on_the_face(asperity_flight, drop_by):
             2 * steps[k]
         )
         np.testing.assert_allclose(rough.dfdq[:, k], fd, rtol=1e-5, atol=1e-6 * np.abs(rough.dfdq).max())
+
+
+@pytest.mark.jitless
+@pytest.mark.parametrize("law", ["flat", "asperity_dmt"])
+@pytest.mark.parametrize("sigma", [0.0, 0.1e-9, 0.3e-9])
+def test_adhesion_curvature_is_the_slope_s_derivative(law, sigma):
+    """adhesion_with_curvature: the pressure and slope of adhesion_by_law, and a curvature equal to the central
+    difference of the slope (step 1e-5 of the scale) within 1e-5 of the curvature's largest value on the range."""
+    code = KERNEL_LAWS[law]
+    adh_coef = adhesion_coefficient(DGAMMA, EPS)
+    scale = max(sigma, EPS)
+    ds = np.linspace(EPS + 0.05e-9 if sigma == 0.0 else EPS - 2 * sigma, 4e-9, 61)
+    exact, differences = [], []
+    for d in ds:
+        p, slope, curv = kernels.adhesion_with_curvature(d, sigma, EPS, adh_coef, code, SUMMIT_COEF)
+        assert (p, slope) == kernels.adhesion_by_law(d, sigma, EPS, adh_coef, code, SUMMIT_COEF)
+        step = 1e-5 * scale
+        up = kernels.adhesion_by_law(d + step, sigma, EPS, adh_coef, code, SUMMIT_COEF)[1]
+        down = kernels.adhesion_by_law(d - step, sigma, EPS, adh_coef, code, SUMMIT_COEF)[1]
+        exact.append(curv)
+        differences.append((up - down) / (2 * step))
+    exact, differences = np.array(exact), np.array(differences)
+    assert np.max(np.abs(exact - differences)) <= 1e-5 * np.max(np.abs(exact))
+
+
+def test_the_adhesion_cache_is_the_exact_law_near_its_cells(asperity_flight):
+    """generalized_forces with its cache: filled at q, used at q moved by 0.1 pm (inside CACHE_REACH), the force
+    and Jacobian equal the exact evaluation to 1e-9; moved by 2 nm, every cell is evaluated afresh (exact)."""
+    scene, film, surface, steady = asperity_flight
+    q = steady.q - [3.0e-9, 0.0, 0.0]
+    sigma = np.full(film.shape, scene.disk.rms)
+    cells = surface.candidates(np.zeros(film.shape), sigma, q, 3.0e-9)
+    n = cells.base.size
+    cache = tuple(np.empty(n) for _ in range(4))
+    f, dfdq = np.empty(3), np.empty((3, 3))
+    args = (cells.base, cells.sigma, cells.b, cells.area)
+    kernels.generalized_forces(*args, q, *surface.kernel_law, f, dfdq, cache, kernels.CACHE_FILL)
+    for move, tol in ((0.1e-12, 1e-9), (2.0e-9, 0.0)):
+        q1 = q + [move, 0.0, 0.0]
+        exact_f, exact_j = np.empty(3), np.empty((3, 3))
+        totals = kernels.generalized_forces(*args, q1, *surface.kernel_law, exact_f, exact_j, NO_CACHE,
+                                            kernels.CACHE_OFF)  # fmt: skip
+        cached = kernels.generalized_forces(*args, q1, *surface.kernel_law, f, dfdq, cache, kernels.CACHE_USE)
+        assert totals[2] == cached[2] and totals[1] < 0.0
+        assert abs(cached[1] / totals[1] - 1.0) <= tol
+        assert np.max(np.abs(f - exact_f) / np.abs(exact_f)) <= tol
+        assert np.max(np.abs(dfdq - exact_j)) <= max(tol, 1e-14) * np.max(np.abs(exact_j))

@@ -37,6 +37,8 @@ DROP = COARSE | {
 PRELOAD = 7.84532e-3
 EXACT = {"numerics.film_coupling": "linearized", "numerics.film_repass": 0.0}
 
+NO_CACHE = (np.empty(0), np.empty(0), np.empty(0), np.empty(0))  # generalized_forces without its cache
+
 
 @pytest.fixture(scope="module")
 def drops():
@@ -191,7 +193,7 @@ def test_generalized_forces_kernel_matches_the_surface_model(lowered_step):
     assert model.contact > 0.0 and model.adhesion < 0.0 and model.friction > 0.0
     f, dfdq = np.empty(3), np.empty((3, 3))
     contact, adhesion, in_reach = ksurf.generalized_forces(
-        cells.base, cells.sigma, cells.b, cells.area, stepper.q, *surface.kernel_law, f, dfdq
+        cells.base, cells.sigma, cells.b, cells.area, stepper.q, *surface.kernel_law, f, dfdq, NO_CACHE, ksurf.CACHE_OFF
     )
     to_unit = np.array([1.0, 1.0 / scene.slider.length, 1.0 / scene.slider.length])  # moments as forces
     assert np.max(np.abs((f - model.f) * to_unit)) <= 1e-12 * np.max(np.abs(model.f * to_unit))

@@ -21,6 +21,10 @@ until the weighted residual max |W G| decreases.  Converged when max |W G|
 < tol, or at the round-off of the forces: max |W G| <= round_off (max |W f_s|
 + max |W f_path|).  The same iteration as the Python loop of
 :meth:`solver.abs.integrate.AbsStepper._newton`, which the elastic law uses.
+The cells' adhesion (a quadrature per cell, most of the cost) is evaluated
+with its curvature at the first iterate and taken from its Taylor expansion
+at the later ones, whose separations move by far less than the roughness
+(:func:`~solver.kernels.surface.generalized_forces`' cache).
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..jit import njit
-from .surface import contact_damping, generalized_forces
+from .surface import CACHE_FILL, CACHE_USE, contact_damping, generalized_forces
 
 
 @njit
@@ -74,6 +78,8 @@ def _balance(
     dfdq: np.ndarray,
     c_s: np.ndarray,
     G: np.ndarray,
+    cache: tuple,
+    mode: int,
 ) -> tuple[float, float, int]:
     """q(a), v(a), the surface forces and G(a) into the output arrays; returns contact, adhesion, cells in reach.
 
@@ -91,7 +97,7 @@ def _balance(
         v1[k] = v[k] + h * ((1.0 - gamma) * a[k] + gamma * a_trial[k])
     contact, adhesion, in_reach = generalized_forces(
         offset, sigma, b, area, q1, eps, gw_coef, adh_coef, adhesion_law, summit_coef, mu, arm, reach, reach_sigmas,
-        f_s, dfdq,
+        f_s, dfdq, cache, mode,
     )  # fmt: skip
     if zeta > 0.0:
         contact += contact_damping(
@@ -152,7 +158,11 @@ def newton_step(
     tJ = np.empty((3, 3))
     Cs, tC = np.empty((3, 3)), np.empty((3, 3))
     Jn = np.empty((3, 3))
-    contact, adhesion, in_reach = _balance(a_new, h, state, scheme, film, cells, law, damping, q1, v1, f_s, dfdq, Cs, G)
+    n_cells = cells[0].size
+    cache = (np.empty(n_cells), np.empty(n_cells), np.empty(n_cells), np.empty(n_cells))
+    contact, adhesion, in_reach = _balance(
+        a_new, h, state, scheme, film, cells, law, damping, q1, v1, f_s, dfdq, Cs, G, cache, CACHE_FILL
+    )
     norm = _weighted_max(G, weights)
     scale = _weighted_max(f_path, weights)
     iterations = 0
@@ -172,7 +182,9 @@ def newton_step(
         for _ in range(max_backtracks):
             for k in range(3):
                 trial[k] = a_new[k] - lam * step[k]
-            totals = _balance(trial, h, state, scheme, film, cells, law, damping, tq, tv, tf, tJ, tC, tG)
+            totals = _balance(
+                trial, h, state, scheme, film, cells, law, damping, tq, tv, tf, tJ, tC, tG, cache, CACHE_USE
+            )
             trial_norm = _weighted_max(tG, weights)
             if trial_norm < norm or lam < min_damping:
                 break

@@ -145,6 +145,12 @@ PANEL_MERGE = 0.25
 #: Beyond this many eps the LJ law is below 1e-12 of adh_coef: no adhesion.
 LJ_RANGE = 1.0e4
 
+#: :func:`generalized_forces`' adhesion cache: off, fill it, use it within CACHE_REACH max(sigma, eps) of its cells.
+CACHE_OFF = 0
+CACHE_FILL = 1
+CACHE_USE = 2
+CACHE_REACH = 1.0e-3
+
 #: Adhesion law codes of the kernels (names in :data:`solver.surface.ADHESION_LAWS`).
 ADHESION_FLAT = 0
 ADHESION_ASPERITY = 1
@@ -258,6 +264,15 @@ def lj_energy(h: float, eps: float, adh_coef: float) -> float:
 
 
 @njit
+def lj_curvature(h: float, eps: float, adh_coef: float) -> float:
+    """d^2 p_LJ / dh^2 = adh_coef (90 (eps/h)^9 - 12 (eps/h)^3) / h^2 [Pa/m^2]."""
+    inv_h = 1.0 / h
+    u = eps * inv_h
+    u3 = u * u * u
+    return adh_coef * (90.0 * u3 * u3 * u3 - 12.0 * u3) * inv_h * inv_h
+
+
+@njit
 def contact_pressure(d: float, sigma: float, eps: float, gw_coef: float) -> tuple[float, float]:
     """Greenwood-Williamson pressure p_c [Pa] and dp_c/dd [Pa/m] of one cell."""
     if sigma > 0.0:
@@ -271,11 +286,15 @@ def contact_pressure(d: float, sigma: float, eps: float, gw_coef: float) -> tupl
 
 
 @njit
-def _gap_expectations(d: float, sigma: float, eps: float, adh_coef: float, tau: float, energy: bool):
-    """E[p_LJ], E[p_LJ'] and (if ``energy``) E[W] over the gaps h = d - sigma Z >= eps, sigma > 0 (module docstring)."""
+def _gap_expectations(
+    d: float, sigma: float, eps: float, adh_coef: float, tau: float, energy: bool, curvature: bool = False
+):
+    """E[p_LJ], E[p_LJ'], (if ``energy``) E[W] and (if ``curvature``) E[p_LJ''] over the gaps h = d - sigma Z >= eps,
+    sigma > 0 (module docstring)."""
     p = 0.0
     slope = 0.0
     work = 0.0
+    curv = 0.0
     if tau >= N_SIGMA:
         for k in range(_GH_NODES.size):
             h = d - sigma * _GH_NODES[k]
@@ -284,7 +303,9 @@ def _gap_expectations(d: float, sigma: float, eps: float, adh_coef: float, tau: 
             slope += _GH_WEIGHTS[k] * sk
             if energy:
                 work += _GH_WEIGHTS[k] * lj_energy(h, eps, adh_coef)
-        return p, slope, work
+            if curvature:
+                curv += _GH_WEIGHTS[k] * lj_curvature(h, eps, adh_coef)
+        return p, slope, work, curv
     # beyond h_hi the Gaussian weight is below exp(-GAUSS_TAIL) of its largest value on h >= eps
     h_hi = d + sigma * math.sqrt(min(tau, 0.0) ** 2 + 2.0 * GAUSS_TAIL)
     start = eps
@@ -304,23 +325,55 @@ def _gap_expectations(d: float, sigma: float, eps: float, adh_coef: float, tau: 
             slope += w * sk
             if energy:
                 work += w * lj_energy(h, eps, adh_coef)
+            if curvature:
+                curv += w * lj_curvature(h, eps, adh_coef)
         start = end
     norm = inv_sigma / _SQRT_2PI
-    return p * norm, slope * norm, work * norm
+    return p * norm, slope * norm, work * norm, curv * norm
+
+
+@njit
+def _flat_adhesion(d: float, sigma: float, eps: float, adh_coef: float, curvature: bool) -> tuple[float, float, float]:
+    """Flat-law p_a, dp_a/dd and (if ``curvature``, else 0) d^2 p_a/dd^2: E[p_LJ''] plus the wall's term
+    p_LJ'(eps) phi_sigma(d - eps), since p_a = E[p_LJ] over h >= eps and p_LJ(eps) = 0."""
+    if sigma <= 0.0:
+        if d < eps:
+            return 0.0, 0.0, 0.0
+        p, slope = lj_pressure(d, eps, adh_coef)
+        return p, slope, lj_curvature(d, eps, adh_coef) if curvature else 0.0
+    tau = (d - eps) / sigma
+    if tau < TAU_NO_ADHESION or d - N_SIGMA * sigma > LJ_RANGE * eps:
+        return 0.0, 0.0, 0.0
+    p, slope, _, curv = _gap_expectations(d, sigma, eps, adh_coef, tau, False, curvature)
+    if curvature:
+        curv -= 6.0 * adh_coef / eps * math.exp(-0.5 * tau * tau) / (sigma * _SQRT_2PI)  # p_LJ'(eps) = -6 adh/eps
+    return p, slope, curv
 
 
 @njit
 def adhesion_pressure(d: float, sigma: float, eps: float, adh_coef: float) -> tuple[float, float]:
     """Flat-law adhesion pressure p_a [Pa] (<= 0) and dp_a/dd [Pa/m] of one cell."""
+    p, slope, _ = _flat_adhesion(d, sigma, eps, adh_coef, False)
+    return p, slope
+
+
+@njit
+def _asperity_adhesion(
+    d: float, sigma: float, eps: float, adh_coef: float, summit_coef: float
+) -> tuple[float, float, float]:
+    """DMT-summit p_a, dp_a/dd = -summit_coef E[p_LJ] and d^2 p_a/dd^2 = -summit_coef E[p_LJ'] (one quadrature)."""
+    dgamma = 0.375 * adh_coef * eps  # adh_coef = 8 dgamma / (3 eps)
     if sigma <= 0.0:
         if d < eps:
-            return 0.0, 0.0
-        return lj_pressure(d, eps, adh_coef)
+            return -summit_coef * dgamma, 0.0, 0.0
+        p, slope = lj_pressure(d, eps, adh_coef)
+        return summit_coef * lj_energy(d, eps, adh_coef), -summit_coef * p, -summit_coef * slope
     tau = (d - eps) / sigma
-    if tau < TAU_NO_ADHESION or d - N_SIGMA * sigma > LJ_RANGE * eps:
-        return 0.0, 0.0
-    p, slope, _ = _gap_expectations(d, sigma, eps, adh_coef, tau, False)
-    return p, slope
+    if tau < TAU_NO_ADHESION:  # the summits outside the wall (< 2.6e-12 of them) sit at it: every one pulls dgamma
+        return -summit_coef * dgamma, 0.0, 0.0
+    compressed = 0.5 * math.erfc(tau * _INV_SQRT2)  # fraction of summits past the wall
+    p, slope, work, _ = _gap_expectations(d, sigma, eps, adh_coef, tau, True)
+    return summit_coef * (work - dgamma * compressed), -summit_coef * p, -summit_coef * slope
 
 
 @njit
@@ -328,18 +381,8 @@ def asperity_adhesion_pressure(
     d: float, sigma: float, eps: float, adh_coef: float, summit_coef: float
 ) -> tuple[float, float]:
     """DMT-summit adhesion pressure p_a [Pa] (<= 0) and dp_a/dd [Pa/m] of one cell; summit_coef = 2 pi R eta_s [1/m]."""
-    dgamma = 0.375 * adh_coef * eps  # adh_coef = 8 dgamma / (3 eps)
-    if sigma <= 0.0:
-        if d < eps:
-            return -summit_coef * dgamma, 0.0
-        p, _ = lj_pressure(d, eps, adh_coef)
-        return summit_coef * lj_energy(d, eps, adh_coef), -summit_coef * p
-    tau = (d - eps) / sigma
-    if tau < TAU_NO_ADHESION:  # the summits outside the wall (< 2.6e-12 of them) sit at it: every one pulls dgamma
-        return -summit_coef * dgamma, 0.0
-    compressed = 0.5 * math.erfc(tau * _INV_SQRT2)  # fraction of summits past the wall
-    p, _, work = _gap_expectations(d, sigma, eps, adh_coef, tau, True)
-    return summit_coef * (work - dgamma * compressed), -summit_coef * p
+    p, slope, _ = _asperity_adhesion(d, sigma, eps, adh_coef, summit_coef)
+    return p, slope
 
 
 @njit
@@ -350,6 +393,17 @@ def adhesion_by_law(
     if law == ADHESION_ASPERITY:
         return asperity_adhesion_pressure(d, sigma, eps, adh_coef, summit_coef)
     return adhesion_pressure(d, sigma, eps, adh_coef)
+
+
+@njit
+def adhesion_with_curvature(
+    d: float, sigma: float, eps: float, adh_coef: float, law: int, summit_coef: float
+) -> tuple[float, float, float]:
+    """:func:`adhesion_by_law`'s pressure and slope, and its curvature d^2 p_a / dd^2 [Pa/m^2], from the same
+    quadrature (the asperity law's curvature costs nothing more; the flat law's one more sum)."""
+    if law == ADHESION_ASPERITY:
+        return _asperity_adhesion(d, sigma, eps, adh_coef, summit_coef)
+    return _flat_adhesion(d, sigma, eps, adh_coef, True)
 
 
 @njit
@@ -397,6 +451,8 @@ def generalized_forces(
     reach_sigmas: float,
     f: np.ndarray,
     dfdq: np.ndarray,
+    cache: tuple,
+    mode: int,
 ) -> tuple[float, float, int]:
     """Generalized surface force f (3,) and its Jacobian dfdq (3, 3) at attitude q over k cells, in place.
 
@@ -410,7 +466,15 @@ def generalized_forces(
 
     Returns the contact and adhesion forces [N] and the number of cells within reach
     (d_i < reach + reach_sigmas sigma_i).
+
+    ``cache`` = (d, p_a, p_a', p_a'') (k,) each, with ``mode``: CACHE_FILL evaluates the adhesion with its
+    curvature (:func:`adhesion_with_curvature`) and keeps it; CACHE_USE takes p_a and p_a' of a cell whose
+    separation moved by at most CACHE_REACH max(sigma_i, eps) from the kept one from their Taylor expansion
+    (relative error below CACHE_REACH^3 / 6 of the pressure's own scale; others are evaluated and kept again);
+    CACHE_OFF evaluates every cell.  The iterations of one implicit step move a cell by far less than that:
+    the adhesion quadrature, most of the cost, is then paid once per step.
     """
+    cache_d, cache_p, cache_dp, cache_d2p = cache
     f0 = f1 = f2 = 0.0  # scalar accumulators: f, the upper triangle of the symmetric part, the friction row
     j00 = j01 = j02 = j11 = j12 = j22 = 0.0
     w0 = w1 = w2 = 0.0
@@ -423,7 +487,16 @@ def generalized_forces(
         d = offset[i] + b0 * q0 + b1 * q1 + b2 * q2
         s = sigma[i]
         pc, dpc = contact_pressure(d, s, eps, gw_coef)
-        pa, dpa = adhesion_by_law(d, s, eps, adh_coef, adhesion_law, summit_coef)
+        if mode == CACHE_OFF:
+            pa, dpa = adhesion_by_law(d, s, eps, adh_coef, adhesion_law, summit_coef)
+        else:
+            delta = d - cache_d[i]
+            if mode == CACHE_USE and abs(delta) <= CACHE_REACH * max(s, eps):
+                dpa = cache_dp[i] + delta * cache_d2p[i]
+                pa = cache_p[i] + delta * (cache_dp[i] + 0.5 * delta * cache_d2p[i])
+            else:
+                pa, dpa, d2pa = adhesion_with_curvature(d, s, eps, adh_coef, adhesion_law, summit_coef)
+                cache_d[i], cache_p[i], cache_dp[i], cache_d2p[i] = d, pa, dpa, d2pa
         fc = pc * area[i]
         fa = pa * area[i]
         w = dpc * area[i]
