@@ -66,11 +66,60 @@ def _use_fingerprinted_cache(numba: Any) -> None:
     numba.config.CACHE_DIR = str(Path(base) / kernels_fingerprint())
 
 
-def njit(func: Callable[..., Any]) -> Callable[..., Any]:
-    """Compile ``func`` in nopython mode with an on-disk cache and IEEE division (identity if JIT is off)."""
+def njit(func: Callable[..., Any] | None = None, *, inline: bool = False) -> Callable[..., Any]:
+    """Compile ``func`` in nopython mode with an on-disk cache and IEEE division (identity if JIT is off).
+
+    ``inline=True`` (as ``@njit(inline=True)``) has numba inline the function into its callers before LLVM
+    sees them.  LLVM inlines small kernels on its own, but not a face flux with its slip law and Bernoulli
+    function; a call left in a loop body keeps the loop from being vectorized
+    (:mod:`solver.kernels.elementary`).
+    """
+    if func is None:
+        return functools.partial(njit, inline=inline)
     if JIT_DISABLED:
         return func
     import numba
 
     _use_fingerprinted_cache(numba)
-    return numba.njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy")(func)
+    options = {"inline": "always"} if inline else {}
+    return numba.njit(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy", **options)(func)
+
+
+def _bit_casts() -> tuple[Callable[[int], float], Callable[[float], int]]:
+    """(float_from_bits, bits_of_float): the IEEE 754 binary64 reinterpretation of an int64 and back.
+
+    In compiled kernels they are LLVM bitcasts (numba intrinsics), which vectorize; with the JIT off,
+    ``struct`` does the same on Python numbers.
+    """
+    if JIT_DISABLED:
+        import struct
+
+        def float_from_bits(bits: int) -> float:
+            return struct.unpack("<d", struct.pack("<q", int(bits)))[0]
+
+        def bits_of_float(x: float) -> int:
+            return struct.unpack("<q", struct.pack("<d", float(x)))[0]
+
+        return float_from_bits, bits_of_float
+
+    from numba import types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def float_from_bits(typingctx, bits):  # noqa: ARG001 (numba's intrinsic signature)
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(types.float64))
+
+        return types.float64(types.int64), codegen
+
+    @intrinsic
+    def bits_of_float(typingctx, x):  # noqa: ARG001
+        def codegen(context, builder, signature, args):
+            return builder.bitcast(args[0], context.get_value_type(types.int64))
+
+        return types.int64(types.float64), codegen
+
+    return float_from_bits, bits_of_float
+
+
+float_from_bits, bits_of_float = _bit_casts()

@@ -661,9 +661,11 @@ def test_compiled_film_flux_matches_its_python_source(slip):
 
 PROBE = """
 import json
-from solver.kernels.film import face_flux
+from solver.kernels.film import face_flux, face_flux_fk
 args = (1.33, 1.3242, 2.5, 2.6, 2.562, 1600.0, 1.0e4, 6.5, 1e-8, 0.3e-9, 3)
-print(json.dumps([list(face_flux(*args)), list(face_flux.py_func(*args))]))
+fk = args[:8]  # the vectorized face loops' flux (inlined into them)
+print(json.dumps([list(face_flux(*args)) + list(face_flux_fk(*fk)),
+                  list(face_flux.py_func(*args)) + list(face_flux_fk.py_func(*fk))]))
 """
 
 
@@ -681,7 +683,7 @@ def test_editing_a_kernel_module_recompiles_its_callers(tmp_path):
     (package / "kernels").mkdir(parents=True)
     (package / "__init__.py").write_text("")
     shutil.copy(root / "jit.py", package / "jit.py")
-    for name in ("__init__.py", "slip.py", "film.py", "reynolds.py"):
+    for name in ("__init__.py", "elementary.py", "slip.py", "film.py", "reynolds.py"):
         shutil.copy(root / "kernels" / name, package / "kernels" / name)
     env = dict(os.environ, PYTHONPATH=str(tmp_path / "pkg"), NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     env.pop("HDI_DISABLE_JIT", None)

@@ -63,6 +63,40 @@ def test_the_encoding_refuses_what_cf_cannot_hold():
         cf_encode(ds)
 
 
+#: One file of each product (fly, run, study, bench) of each scene kind: the same writers made every other file in
+#: results/.  The checker takes 2-20 s a file (its search for coordinate variables is quadratic in their number), so
+#: the whole folder (43 files, about 6 minutes) is the slow test below.
+CF_SAMPLE = (
+    "benson1989_fly.nc",
+    "benson1989_mu05_alpha080.nc",
+    "fig17.nc",
+    "bench_scene1.nc",
+    "chen_bogy2007_fly.nc",
+    "chen_bogy2007_run.nc",
+    "pad_width.nc",
+    "bench_scene2.nc",
+    "statistics_grid.nc",
+)
+
+
+@pytest.mark.parametrize("name", CF_SAMPLE)
+def test_a_result_file_of_each_product_and_kind_passes_the_cf_checker(name):
+    path = RESULTS / name
+    assert cf_errors(path) == []
+    assert open_result(path).attrs["Conventions"] == "CF-1.8"
+
+
+def test_the_cf_sample_covers_every_product_of_every_kind():
+    def product(path: Path) -> tuple[str | None, str | None]:
+        attrs = open_result(path).attrs
+        return attrs.get("scene_kind"), attrs.get("product")
+
+    sampled = {product(RESULTS / name) for name in CF_SAMPLE}
+    missing = {product(path) for path in RESULTS.glob("*.nc")} - sampled
+    assert not missing, f"results/ holds (kind, product) {missing} that CF_SAMPLE has no file of"
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("path", sorted(RESULTS.glob("*.nc")), ids=lambda p: p.name)
 def test_every_result_file_passes_the_cf_checker(path):
     assert cf_errors(path) == []

@@ -252,7 +252,7 @@ class AbsStepper:
         if sf.contact <= 0.0:
             return 0.0
         if sf is not self._omega_of:  # a substep's end is the next one's start: one eigensolve for both
-            lam = float(np.max(np.linalg.eigvals(-self.m_inv @ sf.dfdq).real))
+            lam = knewmark.contact_frequency_squared(self.m_inv, sf.dfdq)
             self._omega_of, self._omega = sf, math.sqrt(lam) if lam > 0.0 else 0.0
         return self._omega
 

@@ -29,8 +29,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..jit import njit
-from .reynolds import af_solve, bernoulli
-from .slip import flow_factor
+from .elementary import exp_minus
+from .reynolds import af_solve, bernoulli, bernoulli_series
+from .slip import FUKUI_KANEKO, fk_factor_vectorizable, flow_factor
 
 
 class AbsFilmConstants(NamedTuple):
@@ -123,6 +124,97 @@ def face_flux(
     return g * (ml - mr) + a * ml, (g + a) * hl + f_d * dd, -g * hr + f_d * dd
 
 
+@njit(inline=True)
+def bernoulli_vectorizable(x: float) -> tuple[float, float]:
+    """:func:`bernoulli_signed` without branches or libm calls (both forms computed, one selected).
+
+    |x| < 1: the Taylor series; above, B = u e^-u / (1 - e^-u) with e^-u from
+    :func:`solver.kernels.elementary.exp_minus`; B = 0 beyond u = 700, as there.
+    """
+    u = abs(x)
+    b_series, db_series = bernoulli_series(u)
+    em = exp_minus(u)
+    one_minus = 1.0 - em
+    inv = 1.0 / max(one_minus, 1e-300)  # used from u = 1 on; the floor keeps u = 0 finite (and plain Python happy)
+    small = u < 1.0
+    vanishing = u > 700.0
+    b = b_series if small else (0.0 if vanishing else u * em * inv)
+    db = db_series if small else (0.0 if vanishing else em * (one_minus - u) * inv * inv)
+    negative = x < 0.0
+    return (b + u if negative else b), (-db - 1.0 if negative else db)
+
+
+@njit(inline=True)
+def face_flux_fk(
+    pl: float, pr: float, hl: float, hr: float, hf: float, inv_d: float, lam: float, kn: float
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`face_flux` of the Fukui-Kaneko law on a face at least ``h_switch`` thick, written to vectorize.
+
+    The same formulas with :func:`~solver.kernels.slip.fk_factor_vectorizable` and
+    :func:`bernoulli_vectorizable`, and two divisions where :func:`face_flux` has five: with r = 1 / (K inv_d),
+    Pe = A r and dPe/dD = (H' / hf^2 - Pe inv_d / hf) r.  Within a few ulp of it.
+    """
+    pf = 0.5 * (pl + pr)
+    phi, dphi = fk_factor_vectorizable(pf, hf, kn)
+    inv_h = 1.0 / hf
+    h2 = hf * hf
+    k = h2 * pf * phi  # D / hf
+    d = k * hf
+    dd = 0.5 * h2 * hf * (phi + pf * dphi)
+    slope = (hr - hl) * inv_d * inv_h * inv_h
+    k_inv_d = k * inv_d
+    r = 1.0 / k_inv_d
+    a = lam + d * slope
+    pe = a * r
+    b, db = bernoulli_vectorizable(pe)
+    g = k_inv_d * b
+    dpe = (slope - pe * inv_d * inv_h) * r
+    dg = inv_d * (b * inv_h + k * db * dpe)
+    ml, mr = pl * hl, pr * hr
+    f_d = dg * (ml - mr) + slope * ml
+    return g * (ml - mr) + a * ml, (g + a) * hl + f_d * dd, -g * hr + f_d * dd
+
+
+@njit
+def fk_face_fluxes(
+    P: np.ndarray, Hx: np.ndarray, Hy: np.ndarray, Hxe: np.ndarray, Hye: np.ndarray, dx: np.ndarray,
+    dy: np.ndarray, lamx: float, lamy: float, kn: float, h_ref: float, h_switch: float, xface: np.ndarray,
+    yface: np.ndarray,
+) -> None:  # fmt: skip
+    """The plain faces' fluxes (F, dF/dP_L, dF/dP_R) of the Fukui-Kaneko law into xface and yface.
+
+    What the face loops of :func:`assemble` compute with :func:`face_flux`, in loops that vectorize
+    (:func:`face_flux_fk`); the faces thinner than ``h_switch``, where the law is the bounded second-order
+    one, are taken again by :func:`face_flux` in a scalar pass (in contact only).
+    """
+    nx, ny = P.shape[1], P.shape[2]
+    for i in range(nx - 1):
+        inv = 1.0 / dx[i]
+        for j in range(ny):
+            xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux_fk(
+                P[0, i, j], P[0, i + 1, j], Hxe[0, i, j], Hxe[1, i, j], Hx[0, i, j], inv, lamx, kn
+            )
+    for i in range(nx):
+        for j in range(ny - 1):
+            yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux_fk(
+                P[0, i, j], P[0, i, j + 1], Hye[0, i, j], Hye[1, i, j], Hy[0, i, j], 1.0 / dy[j], lamy, kn
+            )
+    for i in range(nx - 1):
+        for j in range(ny):
+            if Hx[0, i, j] * h_ref < h_switch:
+                xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux(
+                    P[0, i, j], P[0, i + 1, j], Hxe[0, i, j], Hxe[1, i, j], Hx[0, i, j], 1.0 / dx[i], lamx, kn,
+                    h_ref, h_switch, FUKUI_KANEKO,
+                )  # fmt: skip
+    for i in range(nx):
+        for j in range(ny - 1):
+            if Hy[0, i, j] * h_ref < h_switch:
+                yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux(
+                    P[0, i, j], P[0, i, j + 1], Hye[0, i, j], Hye[1, i, j], Hy[0, i, j], 1.0 / dy[j], lamy, kn,
+                    h_ref, h_switch, FUKUI_KANEKO,
+                )  # fmt: skip
+
+
 class AbsFilmCuts(NamedTuple):
     """The cut links of the face (:mod:`solver.abs.cuts`), passed like :class:`AbsFilmConstants`.
 
@@ -156,7 +248,10 @@ def segment(
     h: the spacing at its mid-point, hl and hr at its ends (on its own surface); inv = 1/length;
     dg, dc: derivatives with respect to a node pressure (through D at the link's mean pressure pf).
     """
-    phi, dphi = flow_factor(code, pf, h, kn, h_ref, h_switch)
+    if code == FUKUI_KANEKO and h * h_ref >= h_switch:
+        phi, dphi = fk_factor_vectorizable(pf, h, kn)
+    else:
+        phi, dphi = flow_factor(code, pf, h, kn, h_ref, h_switch)
     h3 = h * h * h
     d = h3 * pf * phi
     dd = 0.5 * h3 * (phi + pf * dphi)
@@ -164,7 +259,7 @@ def segment(
     k = d / h
     a = lam + d * slope
     pe = a / (k * inv)
-    b, db = bernoulli_signed(pe)
+    b, db = bernoulli_vectorizable(pe)
     g = k * inv * b
     dg = inv * (b / h + k * db * (slope * k - a / h) / (k * k * inv)) * dd
     return g * hr, dg * hr, (g + a) * hl, (dg + slope * dd) * hl, pe
@@ -423,37 +518,22 @@ def assemble(
     xface, yface = out.xface, out.yface
     kn, h_ref, h_switch, code = film.kn, film.h_ref, film.h_switch, film.code
     nx, ny = P.shape[1], P.shape[2]
-    for i in range(nx - 1):
-        inv = 1.0 / film.dx[i]
-        for j in range(ny):
-            xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux(
-                P[0, i, j],
-                P[0, i + 1, j],
-                Hxe[0, i, j],
-                Hxe[1, i, j],
-                Hx[0, i, j],
-                inv,
-                film.lamx,
-                kn,
-                h_ref,
-                h_switch,
-                code,
-            )
-    for i in range(nx):
-        for j in range(ny - 1):
-            yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux(
-                P[0, i, j],
-                P[0, i, j + 1],
-                Hye[0, i, j],
-                Hye[1, i, j],
-                Hy[0, i, j],
-                1.0 / film.dy[j],
-                film.lamy,
-                kn,
-                h_ref,
-                h_switch,
-                code,
-            )
+    if code == FUKUI_KANEKO:
+        fk_face_fluxes(P, Hx, Hy, Hxe, Hye, film.dx, film.dy, film.lamx, film.lamy, kn, h_ref, h_switch, xface, yface)
+    else:
+        for i in range(nx - 1):
+            inv = 1.0 / film.dx[i]
+            for j in range(ny):
+                xface[0, i, j], xface[1, i, j], xface[2, i, j] = face_flux(
+                    P[0, i, j], P[0, i + 1, j], Hxe[0, i, j], Hxe[1, i, j], Hx[0, i, j], inv, film.lamx, kn, h_ref,
+                    h_switch, code,
+                )  # fmt: skip
+        for i in range(nx):
+            for j in range(ny - 1):
+                yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux(
+                    P[0, i, j], P[0, i, j + 1], Hye[0, i, j], Hye[1, i, j], Hy[0, i, j], 1.0 / film.dy[j], film.lamy,
+                    kn, h_ref, h_switch, code,
+                )  # fmt: skip
     cut = AbsFilmCuts(*cuts)
     cut_fluxes(P, xface, cut.xface, cut.xpiece_ptr, cut.xweight, cut.xseg_ptr, cut.xtheta, cut.xH, film.dx, 0,
                film.lamx, kn, h_ref, h_switch, code)  # fmt: skip

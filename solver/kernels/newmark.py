@@ -200,3 +200,18 @@ def newton_step(
         contact, adhesion, in_reach = totals
     converged = norm < tol or norm <= round_off * (_weighted_max(f_s, weights) + scale)
     return iterations, norm, converged, contact, adhesion, in_reach
+
+
+@njit
+def contact_frequency_squared(m_inv: np.ndarray, dfdq: np.ndarray) -> float:
+    """omega_c^2: the largest real part of the eigenvalues of M^-1 K_s, K_s = -dfdq (3, 3) [1/s^2].
+
+    LAPACK's eigenvalues inside a kernel: called once or twice per step, where numpy's call costs about ten
+    times the eigensolve of a 3 x 3.  Friction makes the matrix unsymmetric and its eigenvalues may be complex,
+    which numba's real eigvals refuses: the matrix is passed as complex.
+    """
+    a = np.empty((3, 3), dtype=np.complex128)
+    for r in range(3):
+        for c in range(3):
+            a[r, c] = -(m_inv[r, 0] * dfdq[0, c] + m_inv[r, 1] * dfdq[1, c] + m_inv[r, 2] * dfdq[2, c])
+    return float(np.max(np.linalg.eigvals(a).real))
