@@ -759,6 +759,16 @@ def test_face_flux_derivatives_match_central_differences(case):
     assert abs(dl - num_l) <= 1e-6 * scale and abs(dr - num_r) <= 1e-6 * scale, (dl, num_l, dr, num_r)
 
 
+def series_flux_of(pl, pr, H, theta, inv_d, lam, const):
+    """:func:`~solver.kernels.film.series_flux` of one link along x (nodes 0 -> 1, length 1 / inv_d) cut into the
+    segments (theta (k,), spacings H (3, k)), their coefficients from the kernels' own pass."""
+    P = np.array([[[pl], [pr]]])
+    face, owner = np.zeros((1, 2), dtype=np.int64), np.zeros(theta.size, dtype=np.int64)
+    coef = np.empty((6, theta.size))
+    kernels_film.segment_coefficients(P, face, owner, theta, H, np.array([1.0 / inv_d]), 0, lam, *const, coef)
+    return kernels_film.series_flux(pl, pr, coef, 0, theta.size, lam)
+
+
 @pytest.mark.parametrize("case", FLUX_CASES)
 def test_series_flux_of_one_segment_is_the_face_flux_and_of_two_conserves_mass(case):
     """One segment over the whole link is the plain flux; two in series carry the same flux through both.
@@ -770,13 +780,13 @@ def test_series_flux_of_one_segment_is_the_face_flux_and_of_two_conserves_mass(c
     pl, pr, hl, hr, hf, inv_d, lam = case
     const = (6.5, 1e-8, 0.3e-9, SLIP_LAWS["fukui_kaneko"].code)
     H1 = np.array([[hf], [hl], [hr]])
-    one = kernels_film.series_flux(pl, pr, H1, np.array([1.0]), 0, 1, inv_d, lam, *const)
+    one = series_flux_of(pl, pr, H1, np.array([1.0]), inv_d, lam, const)
     plain = kernels_film.face_flux(pl, pr, hl, hr, hf, inv_d, lam, *const)
     assert np.allclose(one, plain, rtol=1e-12, atol=0.0)
     # a step at 0.3 of the link: a segment 5x deeper upstream
     theta = np.array([0.3, 0.7])
     H2 = np.array([[5 * hl, 0.5 * (hf + hr)], [5 * hl, hf], [5 * hl, hr]])
-    F, dl, dr = kernels_film.series_flux(pl, pr, H2, theta, 0, 2, inv_d, lam, *const)
+    F, dl, dr = series_flux_of(pl, pr, H2, theta, inv_d, lam, const)
     pf = 0.5 * (pl + pr)
 
     def seg(k, p0, p1):  # one segment's flux with D at the link's mean pressure
@@ -786,10 +796,10 @@ def test_series_flux_of_one_segment_is_the_face_flux_and_of_two_conserves_mass(c
     ps = brentq(lambda p: seg(0, pl, p) - seg(1, p, pr), 1e-3, 1e3, xtol=1e-14)
     assert seg(0, pl, ps) == pytest.approx(F, rel=1e-9) and seg(1, ps, pr) == pytest.approx(F, rel=1e-9)
     e = 1e-6
-    num_l = (kernels_film.series_flux(pl + e, pr, H2, theta, 0, 2, inv_d, lam, *const)[0]
-             - kernels_film.series_flux(pl - e, pr, H2, theta, 0, 2, inv_d, lam, *const)[0]) / (2 * e)  # fmt: skip
-    num_r = (kernels_film.series_flux(pl, pr + e, H2, theta, 0, 2, inv_d, lam, *const)[0]
-             - kernels_film.series_flux(pl, pr - e, H2, theta, 0, 2, inv_d, lam, *const)[0]) / (2 * e)  # fmt: skip
+    num_l = (series_flux_of(pl + e, pr, H2, theta, inv_d, lam, const)[0]
+             - series_flux_of(pl - e, pr, H2, theta, inv_d, lam, const)[0]) / (2 * e)  # fmt: skip
+    num_r = (series_flux_of(pl, pr + e, H2, theta, inv_d, lam, const)[0]
+             - series_flux_of(pl, pr - e, H2, theta, inv_d, lam, const)[0]) / (2 * e)  # fmt: skip
     scale = abs(F) / max(pl, pr) + abs(dl) + abs(dr)
     assert abs(dl - num_l) <= 1e-6 * scale and abs(dr - num_r) <= 1e-6 * scale, (dl, num_l, dr, num_r)
 

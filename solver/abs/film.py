@@ -87,13 +87,16 @@ class AbsFilm:
             diag=z3(nx, ny), rhs=z3(nx, ny), delta=z3(nx, ny), work=z3(nx, ny),
         )  # fmt: skip
         cx, cy = g.cuts_x, g.cuts_y
+        self._owner = (cx.owner, cy.owner)
         self.cuts = kf.AbsFilmCuts(
             xface=cx.face, xpiece_ptr=cx.piece_ptr, xweight=cx.piece_weight, xseg_ptr=cx.seg_ptr,
             xtheta=cx.seg_theta, xH=np.zeros((3, cx.seg_theta.size)), yface=cy.face, ypiece_ptr=cy.piece_ptr,
             yweight=cy.piece_weight, yseg_ptr=cy.seg_ptr, ytheta=cy.seg_theta, yH=np.zeros((3, cy.seg_theta.size)),
+            xowner=self._owner[0], xcoef=np.zeros((6, cx.seg_theta.size)), yowner=self._owner[1],
+            ycoef=np.zeros((6, cy.seg_theta.size)),
         )  # fmt: skip
-        self._owner = (cx.owner, cy.owner)
-        self._seg = (np.zeros((3, cx.seg_theta.size)), np.zeros((3, cy.seg_theta.size)))  # cut_corrections' scratch
+        # the force's link corrections get coefficient scratch of their own (the step's are read after it)
+        self._coef = (np.zeros((6, cx.seg_theta.size)), np.zeros((6, cy.seg_theta.size)))
         self._edges = (self._edge_links(0, cx.face), self._edge_links(1, cy.face))
         self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
         self._links = self._link_arguments()
@@ -183,10 +186,10 @@ class AbsFilm:
         number, slip law, arms, scratch, then the edge links and the spacings at their mid-points and nodes."""
         g, c, (xp, yp) = self.grid, self.cuts, self.pivot
         law = (self.kn, self.h_ref, self.h_switch, self.code)
-        x = (*c[0:6], g.cuts_x.seg_x[0], g.x, g.y, self._width_y, self.dx, self.lamx, *law, xp, yp, self._seg[0],
-             self._edges[0], self.Hx, self.Hxe)  # fmt: skip
-        y = (*c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, *law, yp, xp, self._seg[1],
-             self._edges[1], self.Hy, self.Hye)  # fmt: skip
+        x = (*c[0:6], g.cuts_x.seg_x[0], g.x, g.y, self._width_y, self.dx, self.lamx, *law, xp, yp, self._owner[0],
+             self._coef[0], self._edges[0], self.Hx, self.Hxe)  # fmt: skip
+        y = (*c[6:12], g.cuts_y.seg_y[0], g.y, g.x, self._width_x, self.dy, self.lamy, *law, yp, xp, self._owner[1],
+             self._coef[1], self._edges[1], self.Hy, self.Hye)  # fmt: skip
         return x, y
 
     def _edge_links(self, axis: int, cut: np.ndarray) -> np.ndarray:

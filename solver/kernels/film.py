@@ -221,7 +221,8 @@ class AbsFilmCuts(NamedTuple):
     Per axis (x: links i -> i+1, y: links j -> j+1): face (n, 2) the link's lower node (i, j);
     piece_ptr (n + 1,) into the pieces, weight (m,) their shares of the strip; seg_ptr (m + 1,) into
     the segments, theta (k,) their shares of the link, H (3, k) their scaled spacings at mid-point and
-    ends (set per step).
+    ends (set per step); then owner (k,) each segment's link (index into face) and coef (6, k), the
+    segments' coefficients (:func:`segment_coefficients`, scratch).
     """
 
     xface: np.ndarray
@@ -236,6 +237,10 @@ class AbsFilmCuts(NamedTuple):
     yseg_ptr: np.ndarray
     ytheta: np.ndarray
     yH: np.ndarray
+    xowner: np.ndarray
+    xcoef: np.ndarray
+    yowner: np.ndarray
+    ycoef: np.ndarray
 
 
 @njit
@@ -265,27 +270,88 @@ def segment(
     return g * hr, dg * hr, (g + a) * hl, (dg + slope * dd) * hl, pe
 
 
+@njit(inline=True)
+def segment_fk(
+    pf: float, h: float, hl: float, hr: float, inv: float, lam: float, kn: float
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """:func:`segment` of the Fukui-Kaneko law in a film at least ``h_switch`` thick, written to vectorize
+    (as :func:`face_flux_fk`), and the segment's :func:`profile_weight`: g, dg, c, dc, Pe, w(Pe)."""
+    phi, dphi = fk_factor_vectorizable(pf, h, kn)
+    inv_h = 1.0 / h
+    h2 = h * h
+    k = h2 * pf * phi  # D / h
+    d = k * h
+    dd = 0.5 * h2 * h * (phi + pf * dphi)
+    slope = (hr - hl) * inv * inv_h * inv_h
+    k_inv = k * inv
+    r = 1.0 / k_inv
+    a = lam + d * slope
+    pe = a * r
+    b, db = bernoulli_vectorizable(pe)
+    g = k_inv * b
+    dg = inv * (b * inv_h + k * db * (slope - pe * inv * inv_h) * r) * dd
+    tiny = abs(pe) < PROFILE_SERIES
+    w = 0.5 - pe / 12.0 if tiny else (1.0 - b) / (1.0 if tiny else pe)
+    return g * hr, dg * hr, (g + a) * hl, (dg + slope * dd) * hl, pe, w
+
+
 @njit
-def series_flux(
-    pl: float, pr: float, H: np.ndarray, theta: np.ndarray, s0: int, s1: int, inv_d: float, lam: float,
-    kn: float, h_ref: float, h_switch: float, code: int,
-) -> tuple[float, float, float]:  # fmt: skip
+def segment_coefficients(
+    P: np.ndarray, face: np.ndarray, owner: np.ndarray, theta: np.ndarray, H: np.ndarray, spacing: np.ndarray,
+    axis: int, lam: float, kn: float, h_ref: float, h_switch: float, code: int, coef: np.ndarray,
+) -> None:  # fmt: skip
+    """Every cut segment's coefficients at the pressure P and the spacings H (3, k), into coef (6, k):
+
+        g, dg, c, dc, Pe (:func:`segment`, at its link's mean pressure) and w(Pe) (:func:`profile_weight`).
+
+    One pass over the segments, which vectorizes for the Fukui-Kaneko law (:func:`segment_fk`); segments under
+    its switch, and the other laws, by :func:`segment`.  The series of :func:`series_flux` and
+    :func:`series_mean` then only combine them.
+    """
+    n_seg = theta.size
+    fk = code == FUKUI_KANEKO
+    if fk:
+        # the links' mean pressures and inverse lengths gathered first (coef[4], coef[5] hold them), so that
+        # the loop over the segments reads contiguous arrays and vectorizes
+        for k in range(n_seg):
+            n = owner[k]
+            i, j = face[n, 0], face[n, 1]
+            pr = P[0, i + 1, j] if axis == 0 else P[0, i, j + 1]
+            coef[4, k] = 0.5 * (P[0, i, j] + pr)
+            coef[5, k] = 1.0 / ((spacing[i] if axis == 0 else spacing[j]) * theta[k])
+        for k in range(n_seg):
+            coef[0, k], coef[1, k], coef[2, k], coef[3, k], coef[4, k], coef[5, k] = segment_fk(
+                coef[4, k], H[0, k], H[1, k], H[2, k], coef[5, k], lam, kn
+            )
+    for k in range(n_seg):
+        if fk and H[0, k] * h_ref >= h_switch:
+            continue
+        n = owner[k]
+        i, j = face[n, 0], face[n, 1]
+        pr = P[0, i + 1, j] if axis == 0 else P[0, i, j + 1]
+        inv = 1.0 / (spacing[i] if axis == 0 else spacing[j]) / theta[k]
+        g, dg, c, dc, pe = segment(0.5 * (P[0, i, j] + pr), H[0, k], H[1, k], H[2, k], inv, lam, kn, h_ref,
+                                   h_switch, code)  # fmt: skip
+        coef[0, k], coef[1, k], coef[2, k], coef[3, k], coef[4, k], coef[5, k] = g, dg, c, dc, pe, profile_weight(pe)
+
+
+@njit
+def series_flux(pl: float, pr: float, coef: np.ndarray, s0: int, s1: int, lam: float) -> tuple[float, float, float]:
     """Flux through segments s0 .. s1-1 of a link in series (L to R), and dF/dP_L, dF/dP_R.
 
     Segment k (length theta_k d, spacings H[0, k] at its mid-point, H[1, k]
     and H[2, k] at its ends) carries F = c_k P_k-1 - g_k P_k
-    (:func:`segment`), the same F through every segment (mass conservation
-    at the steps, where P is continuous).  Eliminating the inner pressures
+    (:func:`segment`; its g, dg, c, dc in ``coef`` from :func:`segment_coefficients`), the same F through
+    every segment (mass conservation at the steps, where P is continuous).  Eliminating the inner pressures
     gives F in terms of P_L and P_R; the elimination runs from the
     downstream end when the flow goes L -> R (ratios g / c <= 1 there), the
     other way otherwise, so it never overflows.  D is taken at the link's
     mean pressure; its derivative enters by forward differentiation.
     """
-    pf = 0.5 * (pl + pr)
     u, v, du, dv = 1.0, 0.0, 0.0, 0.0
     for m in range(s1 - s0):
         k = s1 - 1 - m if lam >= 0.0 else s0 + m
-        g, dg, c, dc, _ = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
+        g, dg, c, dc = coef[0, k], coef[1, k], coef[2, k], coef[3, k]
         if lam >= 0.0:  # P_k-1 = u' P_R + v' F from P_k = u P_R + v F
             u, du = g * u / c, (dg * u + g * du) / c - g * u * dc / (c * c)
             v, dv = (1.0 + g * v) / c, (dg * v + g * dv) / c - (1.0 + g * v) * dc / (c * c)
@@ -301,6 +367,10 @@ def series_flux(
     return F, u / v + fd, -1.0 / v + fd
 
 
+#: Below this |Pe| the profile weight is its series 1/2 - Pe/12 (the closed form cancels).
+PROFILE_SERIES = 1e-4
+
+
 @njit
 def profile_weight(pe: float) -> float:
     """w(Pe) = (1 - B(Pe)) / Pe: the mean of the exponential profile between P0 and P1 is P0 + (P1 - P0) w.
@@ -309,7 +379,7 @@ def profile_weight(pe: float) -> float:
     Scharfetter-Gummel flux assumes): w = 1/2 without convection, -> 0
     when the flow sweeps the pressure change to the downstream end.
     """
-    if abs(pe) < 1e-4:
+    if abs(pe) < PROFILE_SERIES:
         return 0.5 - pe / 12.0
     b, _ = bernoulli_signed(pe)
     return (1.0 - b) / pe
@@ -317,22 +387,20 @@ def profile_weight(pe: float) -> float:
 
 @njit
 def series_mean(
-    pl: float, pr: float, H: np.ndarray, theta: np.ndarray, pos: np.ndarray, s0: int, s1: int, inv_d: float,
-    lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float, seg: np.ndarray,
+    pl: float, pr: float, coef: np.ndarray, H: np.ndarray, theta: np.ndarray, pos: np.ndarray, s0: int, s1: int,
+    lam: float, arm0: float,
 ) -> tuple[float, float]:  # fmt: skip
     """Mean of P - 1 over a link's segments in series, and of (P - 1)(pos - arm0): each segment's exact profile.
 
     The flux comes from the elimination of :func:`series_flux` (the same recurrences, without the
-    derivatives), which keeps each segment's g, c and Pe in ``seg`` (3, k); the inner pressures are then
-    marched again with the flux known.  pos (k,) are the segments' mid-points along the link [m], the
-    moment arm of each segment.
+    derivatives) on the segments' g and c in ``coef`` (:func:`segment_coefficients`); the inner pressures are
+    then marched again with the flux known, each segment's profile averaged with its weight w(Pe) (coef[5]).
+    pos (k,) are the segments' mid-points along the link [m], the moment arm of each segment.
     """
-    pf = 0.5 * (pl + pr)
     u, v = 1.0, 0.0
     for m in range(s1 - s0):
         k = s1 - 1 - m if lam >= 0.0 else s0 + m
-        g, _, c, _, pe = segment(pf, H[0, k], H[1, k], H[2, k], inv_d / theta[k], lam, kn, h_ref, h_switch, code)
-        seg[0, k], seg[1, k], seg[2, k] = g, c, pe
+        g, c = coef[0, k], coef[2, k]
         if lam >= 0.0:
             u, v = g * u / c, (1.0 + g * v) / c
         else:
@@ -343,7 +411,7 @@ def series_mean(
     near = pr if lam >= 0.0 else pl  # pressure at the end the march starts from
     for m in range(s1 - s0):
         k = s1 - 1 - m if lam >= 0.0 else s0 + m
-        g, c, pe = seg[0, k], seg[1, k], seg[2, k]
+        g, c = coef[0, k], coef[2, k]
         if lam >= 0.0:
             u, v = g * u / c, (1.0 + g * v) / c
             far = u * pr + v * F  # the segment's upstream (left) end
@@ -353,7 +421,7 @@ def series_mean(
             far = u * pl - v * F  # the segment's downstream (right) end
             p0, p1 = near, far
         m0, m1 = p0 * H[1, k], p1 * H[2, k]  # the profile is exponential in m = P H
-        avg = (m0 + (m1 - m0) * profile_weight(pe)) / H[0, k] - 1.0
+        avg = (m0 + (m1 - m0) * coef[5, k]) / H[0, k] - 1.0
         mean += theta[k] * avg
         moment += theta[k] * avg * (pos[k] - arm0)
         near = far
@@ -377,7 +445,7 @@ def cut_corrections(
     P: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray, seg_ptr: np.ndarray,
     theta: np.ndarray, H: np.ndarray, pos: np.ndarray, nodes: np.ndarray, cross: np.ndarray, width: np.ndarray,
     spacing: np.ndarray, axis: int, lam: float, kn: float, h_ref: float, h_switch: float, code: int, arm0: float,
-    cross0: float, seg: np.ndarray,
+    cross0: float, owner: np.ndarray, coef: np.ndarray,
 ) -> tuple[float, float, float]:  # fmt: skip
     """What the cut links change in the integrals of P - 1, (P - 1)(s - arm0) and (P - 1)(c - cross0) [m2, m3, m3].
 
@@ -387,8 +455,10 @@ def cut_corrections(
     (:func:`series_mean`), pieces in parallel, over the link length times
     the strip ``width`` (the control volumes' extent across the link).
     s is the coordinate along the link (x for axis 0, y for axis 1), c the
-    one across it, whose node coordinates are ``cross``.  ``seg`` (3, k): scratch for :func:`series_mean`.
+    one across it, whose node coordinates are ``cross``.  owner, coef: the segments' links and their
+    coefficients' scratch (:func:`segment_coefficients`).
     """
+    segment_coefficients(P, face, owner, theta, H, spacing, axis, lam, kn, h_ref, h_switch, code, coef)
     load = moment = moment_cross = 0.0
     for n in range(face.shape[0]):
         i, j = face[n, 0], face[n, 1]
@@ -396,8 +466,7 @@ def cut_corrections(
         length = nodes[k + 1] - nodes[k]
         mean = mom = 0.0
         for p in range(piece_ptr[n], piece_ptr[n + 1]):
-            a, b = series_mean(pl, pr, H, theta, pos, seg_ptr[p], seg_ptr[p + 1], inv_d, lam, kn, h_ref,
-                               h_switch, code, arm0, seg)  # fmt: skip
+            a, b = series_mean(pl, pr, coef, H, theta, pos, seg_ptr[p], seg_ptr[p + 1], lam, arm0)
             mean += weight[p] * a
             mom += weight[p] * b
         trap = 0.5 * ((pl - 1.0) + (pr - 1.0))
@@ -419,16 +488,32 @@ def edge_corrections(
     profile holds a thin film's boundary layer against P = 1.
 
     With one segment the march of :func:`series_mean` ends where it starts: the profile runs from P_L to P_R,
-    exponential in m = P H with the segment's Pe, and its mean is (m_L + (m_R - m_L) w(Pe)) / H_mid - 1.
+    exponential in m = P H with the segment's Pe, and its mean is (m_L + (m_R - m_L) w(Pe)) / H_mid - 1.  The
+    weights of the Fukui-Kaneko law come from a first pass that vectorizes (:func:`segment_fk`).
     """
+    n_links = face.shape[0]
+    fk = code == FUKUI_KANEKO
+    weights = np.empty(n_links)
+    if fk:
+        link = np.empty((5, n_links))  # gathered first, so that the loop over the links vectorizes
+        for n in range(n_links):
+            i, j = face[n, 0], face[n, 1]
+            pr = P[0, i + 1, j] if axis == 0 else P[0, i, j + 1]
+            link[0, n], link[1, n], link[2, n] = 0.5 * (P[0, i, j] + pr), Hm[0, i, j], He[0, i, j]
+            link[3, n], link[4, n] = He[1, i, j], 1.0 / (spacing[i] if axis == 0 else spacing[j])
+        for n in range(n_links):
+            weights[n] = segment_fk(link[0, n], link[1, n], link[2, n], link[3, n], link[4, n], lam, kn)[5]
     load = moment = moment_cross = 0.0
-    for n in range(face.shape[0]):
+    for n in range(n_links):
         i, j = face[n, 0], face[n, 1]
         pl, pr, inv_d, k, strip, arm = link_geometry(P, i, j, axis, spacing, width, cross, cross0)
         h, hl, hr = Hm[0, i, j], He[0, i, j], He[1, i, j]
-        _, _, _, _, pe = segment(0.5 * (pl + pr), h, hl, hr, inv_d, lam, kn, h_ref, h_switch, code)
+        if fk and h * h_ref >= h_switch:
+            w = weights[n]
+        else:
+            w = profile_weight(segment(0.5 * (pl + pr), h, hl, hr, inv_d, lam, kn, h_ref, h_switch, code)[4])
         m0, m1 = pl * hl, pr * hr
-        mean = (m0 + (m1 - m0) * profile_weight(pe)) / h - 1.0
+        mean = (m0 + (m1 - m0) * w) / h - 1.0
         length = nodes[k + 1] - nodes[k]
         mid = 0.5 * (nodes[k] + nodes[k + 1]) - arm0
         trap = 0.5 * ((pl - 1.0) + (pr - 1.0))
@@ -445,18 +530,18 @@ def link_corrections(P: np.ndarray, x_links: tuple, y_links: tuple) -> tuple[flo
     [m2, m3, m3]: :func:`cut_corrections` then :func:`edge_corrections` along x, then along y, summed in that order.
 
     One call per force evaluation in place of four.  Per axis the links are the tuple (face, piece_ptr, weight,
-    seg_ptr, theta, H, pos, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code, arm0, cross0, seg,
-    edges, Hm, He): the cut links' arguments of :func:`cut_corrections` in its order, then the edge links and
-    the spacings :func:`edge_corrections` reads.
+    seg_ptr, theta, H, pos, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code, arm0, cross0, owner,
+    coef, edges, Hm, He): the cut links' arguments of :func:`cut_corrections` in its order, then the edge links
+    and the spacings :func:`edge_corrections` reads.
     """
     f = mp = mr = 0.0
     for axis in range(2):
         links = x_links if axis == 0 else y_links
         (face, ptr, weight, seg_ptr, theta, H, pos, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code,
-         arm0, cross0, seg, edges, Hm, He) = links  # fmt: skip
+         arm0, cross0, owner, coef, edges, Hm, He) = links  # fmt: skip
         load, m_along, m_across = cut_corrections(
             P, face, ptr, weight, seg_ptr, theta, H, pos, nodes, cross, width, spacing, axis, lam, kn, h_ref, h_switch,
-            code, arm0, cross0, seg,
+            code, arm0, cross0, owner, coef,
         )  # fmt: skip
         e_load, e_along, e_across = edge_corrections(
             P, Hm, He, edges, axis, nodes, cross, width, spacing, lam, kn, h_ref, h_switch, code, arm0, cross0
@@ -470,20 +555,18 @@ def link_corrections(P: np.ndarray, x_links: tuple, y_links: tuple) -> tuple[flo
 @njit
 def cut_fluxes(
     P: np.ndarray, face_out: np.ndarray, face: np.ndarray, piece_ptr: np.ndarray, weight: np.ndarray,
-    seg_ptr: np.ndarray, theta: np.ndarray, H: np.ndarray, spacing: np.ndarray, axis: int, lam: float,
-    kn: float, h_ref: float, h_switch: float, code: int,
+    seg_ptr: np.ndarray, theta: np.ndarray, H: np.ndarray, owner: np.ndarray, coef: np.ndarray, spacing: np.ndarray,
+    axis: int, lam: float, kn: float, h_ref: float, h_switch: float, code: int,
 ) -> None:  # fmt: skip
     """Overwrite the fluxes (F, dF/dP_L, dF/dP_R) of the cut links: pieces in parallel, segments in series."""
+    segment_coefficients(P, face, owner, theta, H, spacing, axis, lam, kn, h_ref, h_switch, code, coef)
     for n in range(face.shape[0]):
         i, j = face[n, 0], face[n, 1]
         pl = P[0, i, j]
-        if axis == 0:
-            pr, inv_d = P[0, i + 1, j], 1.0 / spacing[i]
-        else:
-            pr, inv_d = P[0, i, j + 1], 1.0 / spacing[j]
+        pr = P[0, i + 1, j] if axis == 0 else P[0, i, j + 1]
         F = dl = dr = 0.0
         for p in range(piece_ptr[n], piece_ptr[n + 1]):
-            f, fl, fr = series_flux(pl, pr, H, theta, seg_ptr[p], seg_ptr[p + 1], inv_d, lam, kn, h_ref, h_switch, code)
+            f, fl, fr = series_flux(pl, pr, coef, seg_ptr[p], seg_ptr[p + 1], lam)
             F += weight[p] * f
             dl += weight[p] * fl
             dr += weight[p] * fr
@@ -535,10 +618,10 @@ def assemble(
                     kn, h_ref, h_switch, code,
                 )  # fmt: skip
     cut = AbsFilmCuts(*cuts)
-    cut_fluxes(P, xface, cut.xface, cut.xpiece_ptr, cut.xweight, cut.xseg_ptr, cut.xtheta, cut.xH, film.dx, 0,
-               film.lamx, kn, h_ref, h_switch, code)  # fmt: skip
-    cut_fluxes(P, yface, cut.yface, cut.ypiece_ptr, cut.yweight, cut.yseg_ptr, cut.ytheta, cut.yH, film.dy, 1,
-               film.lamy, kn, h_ref, h_switch, code)  # fmt: skip
+    cut_fluxes(P, xface, cut.xface, cut.xpiece_ptr, cut.xweight, cut.xseg_ptr, cut.xtheta, cut.xH, cut.xowner,
+               cut.xcoef, film.dx, 0, film.lamx, kn, h_ref, h_switch, code)  # fmt: skip
+    cut_fluxes(P, yface, cut.yface, cut.ypiece_ptr, cut.yweight, cut.yseg_ptr, cut.ytheta, cut.yH, cut.yowner,
+               cut.ycoef, film.dy, 1, film.lamy, kn, h_ref, h_switch, code)  # fmt: skip
     for i in range(1, nx - 1):
         w = film.dxc[i]
         for j in range(1, ny - 1):
