@@ -199,6 +199,8 @@ def fk_face_fluxes(
             yface[0, i, j], yface[1, i, j], yface[2, i, j] = face_flux_fk(
                 P[0, i, j], P[0, i, j + 1], Hye[0, i, j], Hye[1, i, j], Hy[0, i, j], 1.0 / dy[j], lamy, kn
             )
+    if min(Hx.min(), Hy.min()) * h_ref >= h_switch:
+        return  # no face under the switch (a vectorized minimum: the scans below are scalar)
     for i in range(nx - 1):
         for j in range(ny):
             if Hx[0, i, j] * h_ref < h_switch:
