@@ -145,31 +145,37 @@ def bernoulli_vectorizable(x: float) -> tuple[float, float]:
 
 
 @njit(inline=True)
+def fk_link(
+    pf: float, h: float, hl: float, hr: float, inv: float, lam: float, kn: float
+) -> tuple[float, float, float, float, float, float, float]:  # fmt: skip
+    """The Scharfetter-Gummel coefficients of :func:`face_flux` for the Fukui-Kaneko law above its switch,
+    written to vectorize: g, dg/dD, A, H' / h^2, dD/dP_node, Pe and B(Pe).
+
+    :func:`~solver.kernels.slip.fk_factor_vectorizable` and :func:`bernoulli_vectorizable`, and two divisions
+    where :func:`face_flux` has five: with r = 1 / (K inv), Pe = A r and dPe/dD = (H' / h^2 - Pe inv / h) r.
+    """
+    phi, dphi = fk_factor_vectorizable(pf, h, kn)
+    inv_h = 1.0 / h
+    h2 = h * h
+    k = h2 * pf * phi  # D / h
+    dd = 0.5 * h2 * h * (phi + pf * dphi)
+    slope = (hr - hl) * inv * inv_h * inv_h
+    k_inv = k * inv
+    r = 1.0 / k_inv
+    a = lam + k * h * slope
+    pe = a * r
+    b, db = bernoulli_vectorizable(pe)
+    dg = inv * (b * inv_h + k * db * (slope - pe * inv * inv_h) * r)
+    return k_inv * b, dg, a, slope, dd, pe, b
+
+
+@njit(inline=True)
 def face_flux_fk(
     pl: float, pr: float, hl: float, hr: float, hf: float, inv_d: float, lam: float, kn: float
 ) -> tuple[float, float, float]:  # fmt: skip
-    """:func:`face_flux` of the Fukui-Kaneko law on a face at least ``h_switch`` thick, written to vectorize.
-
-    The same formulas with :func:`~solver.kernels.slip.fk_factor_vectorizable` and
-    :func:`bernoulli_vectorizable`, and two divisions where :func:`face_flux` has five: with r = 1 / (K inv_d),
-    Pe = A r and dPe/dD = (H' / hf^2 - Pe inv_d / hf) r.  Within a few ulp of it.
-    """
-    pf = 0.5 * (pl + pr)
-    phi, dphi = fk_factor_vectorizable(pf, hf, kn)
-    inv_h = 1.0 / hf
-    h2 = hf * hf
-    k = h2 * pf * phi  # D / hf
-    d = k * hf
-    dd = 0.5 * h2 * hf * (phi + pf * dphi)
-    slope = (hr - hl) * inv_d * inv_h * inv_h
-    k_inv_d = k * inv_d
-    r = 1.0 / k_inv_d
-    a = lam + d * slope
-    pe = a * r
-    b, db = bernoulli_vectorizable(pe)
-    g = k_inv_d * b
-    dpe = (slope - pe * inv_d * inv_h) * r
-    dg = inv_d * (b * inv_h + k * db * dpe)
+    """:func:`face_flux` of the Fukui-Kaneko law on a face at least ``h_switch`` thick, written to vectorize
+    (:func:`fk_link`); within a few ulp of it."""
+    g, dg, a, slope, dd, _, _ = fk_link(0.5 * (pl + pr), hf, hl, hr, inv_d, lam, kn)
     ml, mr = pl * hl, pr * hr
     f_d = dg * (ml - mr) + slope * ml
     return g * (ml - mr) + a * ml, (g + a) * hl + f_d * dd, -g * hr + f_d * dd
@@ -277,24 +283,11 @@ def segment_fk(
     pf: float, h: float, hl: float, hr: float, inv: float, lam: float, kn: float
 ) -> tuple[float, float, float, float, float, float]:  # fmt: skip
     """:func:`segment` of the Fukui-Kaneko law in a film at least ``h_switch`` thick, written to vectorize
-    (as :func:`face_flux_fk`), and the segment's :func:`profile_weight`: g, dg, c, dc, Pe, w(Pe)."""
-    phi, dphi = fk_factor_vectorizable(pf, h, kn)
-    inv_h = 1.0 / h
-    h2 = h * h
-    k = h2 * pf * phi  # D / h
-    d = k * h
-    dd = 0.5 * h2 * h * (phi + pf * dphi)
-    slope = (hr - hl) * inv * inv_h * inv_h
-    k_inv = k * inv
-    r = 1.0 / k_inv
-    a = lam + d * slope
-    pe = a * r
-    b, db = bernoulli_vectorizable(pe)
-    g = k_inv * b
-    dg = inv * (b * inv_h + k * db * (slope - pe * inv * inv_h) * r) * dd
+    (:func:`fk_link`), and the segment's :func:`profile_weight`: g, dg, c, dc, Pe, w(Pe)."""
+    g, dg, a, slope, dd, pe, b = fk_link(pf, h, hl, hr, inv, lam, kn)
     tiny = abs(pe) < PROFILE_SERIES
     w = 0.5 - pe / 12.0 if tiny else (1.0 - b) / (1.0 if tiny else pe)
-    return g * hr, dg * hr, (g + a) * hl, (dg + slope * dd) * hl, pe, w
+    return g * hr, dg * dd * hr, (g + a) * hl, (dg + slope) * dd * hl, pe, w
 
 
 @njit
