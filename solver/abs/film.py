@@ -233,7 +233,7 @@ class AbsFilm:
             if err < tol or stalled:
                 self.newton_iterations += it - 1
                 return it - 1
-            J = self._sparse_jacobian()
+            J = self.sparse_jacobian()
             delta = spla.spsolve(J, -R[0, 1:-1, 1:-1].ravel()).reshape(nx - 2, ny - 2)
             self.reynolds_solves += 1
             P = self.P[0, 1:-1, 1:-1]
@@ -247,7 +247,8 @@ class AbsFilm:
             f"steady film did not converge in {max_iter} Newton iterations at q = {q} (scaled residual {err:.2e})"
         )
 
-    def _sparse_jacobian(self) -> sp.csc_matrix:
+    def sparse_jacobian(self) -> sp.csc_matrix:
+        """dR/dP at the interior nodes of the last :meth:`residual` (sparse, (nx - 2)(ny - 2) square)."""
         nx, ny = self.shape
         b = self.scratch
         Jcx, Jxm, Jxp, Jcy, Jym, Jyp = (a[0, 1:-1, 1:-1] for a in (b.Jcx, b.Jxm, b.Jxp, b.Jcy, b.Jym, b.Jyp))
@@ -284,7 +285,7 @@ class AbsFilm:
 
 
 def _jacobian_pattern(nx: int, ny: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Row/column indices of the interior 5-point Jacobian in the order of :meth:`AbsFilm._sparse_jacobian`.
+    """Row/column indices of the interior 5-point Jacobian in the order of :meth:`AbsFilm.sparse_jacobian`.
 
     Couplings to Dirichlet nodes are dropped (their P is fixed).  Returns
     rows, cols and the index of each kept entry into the concatenated data.

@@ -88,7 +88,7 @@ def linear_system(scene: AbsScene, film: AbsFilm, q0: np.ndarray) -> sp.csc_matr
     film.set_disk(np.zeros(film.shape))
     film.fill_faces(q0)
     R0 = film.residual()[0, 1:-1, 1:-1].copy()
-    J = film._sparse_jacobian()
+    J = film.sparse_jacobian()
     H0 = np.zeros((1, nx, ny))
     film.fill_nodes(q0, H0)
     n = R0.size
