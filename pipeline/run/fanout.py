@@ -47,6 +47,7 @@ log = logging.getLogger(__name__)
 
 WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 ALLOWED_FAILURES = 2  # a run that kills 3 workers is recorded as failed
+WORKER_SATURATION = 1.0  # runs sent to a worker per thread; the queue stays on the scheduler
 
 
 class Planner(Protocol):
@@ -119,6 +120,10 @@ def dask_client(
     with dask.config.set(
         {
             "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+            # one run per worker thread at a time: a run queued on a worker that another run kills counts that
+            # death against itself (dask's default 1.1 sends two runs to a one-thread worker), and an innocent run
+            # queued three times beside a crashing one was recorded as KilledWorker (seen in the test suite)
+            "distributed.scheduler.worker-saturation": WORKER_SATURATION,
             "distributed.worker.daemon": True,
             "distributed.nanny.pre-spawn-environ": WORKER_ENV,
         }
