@@ -8,6 +8,7 @@ small grid (61 x 9 nodes per rail, 100 us), so that a run costs ~0.1 s.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -589,6 +590,14 @@ def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
         if "numerics.dt" in {a.key for a in full.axes}:  # statistics.toml: its time steps, samples every 0.8 us
             tiny = tiny[:5]
         study = load_study(path, tiny, realizations=2)
+        # each axis's first and last values (its corners; the values between run the same code), two realisations
+        corners = tuple(
+            a
+            if a.dim == "realization" or len(a.values) <= 2
+            else dataclasses.replace(a, values=a.values[:: len(a.values) - 1])
+            for a in study.axes
+        )
+        study = dataclasses.replace(study, axes=corners)
         out = run_study(study, tmp_path / f"{study.name}.nc", workers=0, quiet=True)
         # realisations on a smooth disk (rms = 0) are one run
         assert out.computed == len({c.run_id for c in study.cases()}) and out.computed + out.reused == study.size

@@ -8,9 +8,11 @@ from ..kind import SceneKind
 from .params import ABS_SECTIONS, SERIES, AbsScene
 
 #: Keys a run may change and still reuse a steady flight (the steady flight sees the roughness only through
-#: its RMS, so the track's realisation and correlation are free).
+#: its RMS, so the track's realisation and correlation are free; it is static, so the contact damping, which acts
+#: on velocities, is free too).
 STEADY_FREE = {
     "initial": None,
+    "contact": ("damping_ratio",),
     "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity", "rho_infinity_contact",
                  "contact_omega_dt",
                  "contact_splits", "film_coupling", "film_jacobian_every", "film_repass",
