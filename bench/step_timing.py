@@ -25,6 +25,13 @@ the pipeline, so that any copy of ``solver/`` can be timed.
     cp -r solver /tmp/old/   # before editing, then:
     python bench/step_timing.py --against /tmp/old --rounds 6 --repeats 3
     python bench/step_timing.py --kernels                      # median time of each film kernel per call
+
+``--concurrent N`` runs N processes of a tree at once in every round, each waiting behind a file
+barrier until all N have built their timers (steady flight, warm-up), so that their timed runs
+overlap: whether a speed-up holds when every core of the machine runs a study (one dask worker per
+core), not only on an idle machine.
+
+    python bench/step_timing.py --case abs-121x101 --against /tmp/old --rounds 3 --repeats 3 --concurrent 2
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 import tomllib
 from collections.abc import Callable
@@ -109,9 +117,26 @@ def abs_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float]]
     return once
 
 
-def step_times(cases: list[str], repeats: int) -> dict[str, list[tuple[float, float]]]:
-    """(wall, CPU) seconds per step of each case, ``repeats`` samples each, cases interleaved."""
+def wait_for_peers(barrier: Path, peers: int, timeout: float = 600.0) -> None:
+    """Mark this process ready in the folder ``barrier`` and wait until ``peers`` processes are."""
+    (barrier / str(os.getpid())).touch()
+    start = time.monotonic()
+    while sum(1 for _ in barrier.iterdir()) < peers:
+        if time.monotonic() - start > timeout:
+            raise RuntimeError(f"barrier {barrier}: fewer than {peers} processes ready after {timeout:.0f} s")
+        time.sleep(0.01)
+
+
+def step_times(
+    cases: list[str], repeats: int, barrier: Path | None = None, peers: int = 1
+) -> dict[str, list[tuple[float, float]]]:
+    """(wall, CPU) seconds per step of each case, ``repeats`` samples each, cases interleaved.
+
+    With ``barrier``, the timing starts once ``peers`` processes have built their timers (:func:`wait_for_peers`).
+    """
     timers = {case: (abs_timer if CASES[case][0] == ABS_SCENE else rails_timer)(CASES[case][1]) for case in cases}
+    if barrier is not None:
+        wait_for_peers(barrier, peers)
     samples: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}
     for _ in range(repeats):
         for case, once in timers.items():
@@ -184,8 +209,11 @@ def kernel_times(repeats: int, calls: int = 100) -> dict[str, float]:
     return {name: statistics.median(v) for name, v in samples.items()}
 
 
-def compare(others: list[Path], cases: list[str], rounds: int, repeats: int) -> None:
+def compare(others: list[Path], cases: list[str], rounds: int, repeats: int, concurrent: int = 1) -> None:
     """Interleaved A/B: fresh processes taking turns on the trees ``others`` and this one, medians and ratios.
+
+    With ``concurrent`` > 1, each turn runs that many processes of the tree at once, timed together behind a
+    barrier; a round's samples of a tree are then all of its processes' runs.
 
     Besides the medians over all runs, the ratio to the first tree is taken per round (the median of
     each process's runs over that of the first tree's process in the same round) and its median over
@@ -197,13 +225,27 @@ def compare(others: list[Path], cases: list[str], rounds: int, repeats: int) -> 
         for tree in trees[k % len(trees) :] + trees[: k % len(trees)]:
             env = {**os.environ, "PYTHONPATH": str(tree)}
             cmd = [sys.executable, __file__, "--json", "--repeats", str(repeats), "--case", *cases]
-            done = subprocess.run(cmd, env=env, cwd=ROOT, capture_output=True, text=True, check=True)
-            report = json.loads(done.stdout.splitlines()[-1])
-            if Path(report["solver"]).resolve() != tree / "solver" / "__init__.py":
-                raise RuntimeError(f"the run on {tree} imported {report['solver']}")
+            with tempfile.TemporaryDirectory(prefix="step_timing_barrier_") as barrier:
+                if concurrent > 1:
+                    cmd += ["--barrier", barrier, "--peers", str(concurrent)]
+                procs = [
+                    subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                    for _ in range(concurrent)
+                ]
+                outputs = [(p, *p.communicate()) for p in procs]
+            samples = {case: [] for case in cases}
+            for p, out, err in outputs:
+                if p.returncode != 0:
+                    raise RuntimeError(f"the run on {tree} failed ({p.returncode}): {err.strip()[-2000:]}")
+                report = json.loads(out.splitlines()[-1])
+                if Path(report["solver"]).resolve() != tree / "solver" / "__init__.py":
+                    raise RuntimeError(f"the run on {tree} imported {report['solver']}")
+                for case in cases:
+                    samples[case] += report["samples"][case]
             for case in cases:
-                per_round[tree][case].append(report["samples"][case])
-    print(f"{rounds} processes per tree, {repeats} runs per process and case; ms per step, wall and CPU time;")
+                per_round[tree][case].append(samples[case])
+    together = f", {concurrent} processes at once" if concurrent > 1 else ""
+    print(f"{rounds} rounds per tree{together}, {repeats} runs per process and case; ms per step, wall and CPU time;")
     print("ratios to the first tree: of the medians / median of the per-round ratios (speed = 1 / time)")
     for case in cases:
         base = per_round[trees[0]][case]
@@ -228,15 +270,20 @@ def main() -> None:
     ap.add_argument("--against", type=Path, nargs="+", help="folders holding other solver/ copies to compare with")
     ap.add_argument("--rounds", type=int, default=6, help="processes per tree with --against")
     ap.add_argument("--kernels", action="store_true", help="time the film kernels one by one instead")
+    ap.add_argument("--concurrent", type=int, default=1, help="with --against: processes of a tree timed at once")
     ap.add_argument("--json", action="store_true", help="print the samples as one JSON line")
+    ap.add_argument("--barrier", type=Path, help=argparse.SUPPRESS)  # set by --concurrent for its processes
+    ap.add_argument("--peers", type=int, default=1, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.concurrent < 1:
+        ap.error(f"--concurrent = {args.concurrent}: at least 1 process")
     if args.kernels:
         print("  ".join(f"{k} {v * 1e6:.1f} us" for k, v in kernel_times(args.repeats).items()))
         return
     if args.against is not None:
-        compare(args.against, args.case, args.rounds, args.repeats)
+        compare(args.against, args.case, args.rounds, args.repeats, args.concurrent)
         return
-    samples = step_times(args.case, args.repeats)
+    samples = step_times(args.case, args.repeats, args.barrier, args.peers)
     if args.json:
         import solver
 
