@@ -147,9 +147,10 @@ def _abs_grid_check(scene: Any) -> None:
     abs_grid(scene)
 
 
-def _rough_track(scene: Any) -> bool:
-    """The seed makes the track: a synthetic profile of RMS > 0 (a smooth disk or a measured profile ignore it)."""
-    return scene.disk.rms > 0.0 and not scene.disk.profile_file
+def _seeded(scene: Any) -> bool:
+    """The seed draws the track (a synthetic profile of RMS > 0; a smooth disk or a measured profile ignore it)
+    or the initial kick (``initial.zdot_spread`` > 0)."""
+    return (scene.disk.rms > 0.0 and not scene.disk.profile_file) or scene.initial.zdot_spread > 0.0
 
 
 def _adapters() -> dict[str, Adapter]:
@@ -211,7 +212,7 @@ def _adapters() -> dict[str, Adapter]:
         class_flag=None,
         category="regime",
         check=_abs_grid_check,
-        stochastic=_rough_track,
+        stochastic=_seeded,
         run_inputs=_track_profile,
         fly_dataset=lambda steady, scene, wall_time: data_abs.fly_dataset(steady, scene),
         run_dataset=data_abs.run_dataset,

@@ -134,6 +134,7 @@ def abs_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
         f"delta_gamma {c.delta_gamma} J/m2, mu {c.mu}, preload {scene.suspension.preload * 1e3:.3f} mN, "
         f"t_end {scene.numerics.t_end * 1e3:g} ms",
         f"  status {result.status}: {result.message}",
+        *_kick_line(scene),
         f"  steady flying height {float(ds['steady_flying_height']) * 1e9:.4f} nm",
         f"  regime               {REGIMES[int(ds['regime'])] if int(ds['regime']) >= 0 else 'not classified'}",
         f"  bouncing 3 sigma     {float(ds['bouncing_3sigma']) * 1e9:.4f} nm "
@@ -144,6 +145,18 @@ def abs_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
         f"{float(ds['pitch_peak_frequency']) * 1e-3:.1f} kHz, roll {float(ds['roll_peak_frequency']) * 1e-3:.1f} kHz",
         f"  work: {w['steps']} steps on {w['nodes']} nodes, {w['newton_iterations']} Newton iterations, "
         f"{w['wall_time']:.2f} s ({w['wall_time'] / max(w['steps'], 1) * 1e3:.3f} ms/step)",
+    ]
+
+
+def _kick_line(scene: Any) -> list[str]:
+    """The initial vertical velocity a run drew (initial.zdot_spread > 0), or nothing."""
+    init = scene.initial
+    if init.zdot_spread <= 0.0:
+        return []
+    zdot0 = init.velocities(scene.disk.seed)[0]
+    return [
+        f"  initial zdot         {zdot0:.4e} m/s ({init.zdot:g} + {init.zdot_spread:g} m/s x N(0, 1), seed "
+        f"{scene.disk.seed})"
     ]
 
 

@@ -187,7 +187,7 @@ class AbsStepper:
 
         self.t = 0.0
         self.q = steady.q.copy()
-        self.v = np.array([scene.initial.zdot, scene.initial.pitch_rate, scene.initial.roll_rate])
+        self.v = scene.initial.velocities(scene.disk.seed)
         self.zd, sd = track.at(0.0)
         film.set_disk(self.zd)
         self.f_air = film.forces() if self.use_air else np.zeros(3)

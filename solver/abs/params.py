@@ -30,10 +30,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from solver.params import Air, ParameterError, Section, check_field, quantity
 from solver.slip import SLIP_LAWS
 
 GRAM_FORCE = 9.80665e-3  # N
+#: Second entropy word of initial.zdot_spread's generator: a stream apart from the track's default_rng(seed).
+KICK_STREAM = 0x6B69636B
 
 
 @dataclass(frozen=True)
@@ -230,7 +234,7 @@ class AbsDisk(Section):
         2.0e-6, "m", "correlation length of the synthetic track profile (1/e lag)", symbol="l", lo=0.0, lo_open=True
     )
     acf: str = quantity("exponential", "", "autocorrelation shape of the synthetic profile", choices=ACF_SHAPES)
-    seed: int = quantity(1, "1", "random seed of the synthetic profile", lo=0)
+    seed: int = quantity(1, "1", "random seed of the synthetic profile (and of initial.zdot_spread's draw)", lo=0)
     profile_file: str = quantity("", "", "measured track profile (CSV or netCDF); empty: synthetic")
     profile_spacing: float = quantity(0.25e-6, "m", "sample spacing of the synthetic profile", lo=0.0, lo_open=True)
 
@@ -300,6 +304,22 @@ class AbsInitial(Section):
     zdot: float = quantity(0.0, "m s-1", "initial vertical velocity from steady flight", symbol="zdot0")
     pitch_rate: float = quantity(0.0, "rad s-1", "initial pitch rate", symbol="th1dot0")
     roll_rate: float = quantity(0.0, "rad s-1", "initial roll rate", symbol="th2dot0")
+    zdot_spread: float = quantity(
+        0.0,
+        "m s-1",
+        "standard deviation of a random vertical velocity added to zdot, drawn from disk.seed in a stream of its "
+        "own (the track stays the same): on a smooth disk it makes the seed sample the initial state, so that a "
+        "study's realisations of a chaotic response (a pad held down by adhesion) give it an interval",
+        symbol="sigma_zdot0",
+        lo=0.0,
+    )
+
+    def velocities(self, seed: int) -> np.ndarray:
+        """The initial velocities (zdot, pitch rate, roll rate): zdot plus the seed's draw of the spread."""
+        kick = 0.0
+        if self.zdot_spread > 0.0:
+            kick = self.zdot_spread * np.random.default_rng([seed, KICK_STREAM]).standard_normal()
+        return np.array([self.zdot + kick, self.pitch_rate, self.roll_rate])
 
 
 ABS_AIR_BEARINGS = ("reynolds", "none")
