@@ -89,7 +89,8 @@ def abs_fly(steady: Any, scene: Any, wall: float) -> list[str]:
         "near 1 preload or above, expect no flying equilibrium",
         *([f"  branch             contact: {steady.branch}"] if steady.branch else []),
         f"  work               grid {nx} x {ny}, {steady.iterations} attitude iterations, "
-        f"{steady.reynolds_solves} sparse Reynolds solves, {steady.wall_time:.2f} s",
+        f"{steady.reynolds_solves} sparse Reynolds solves on {steady.factorizations} LU factorizations, "
+        f"{steady.wall_time:.2f} s",
         *region_table(steady, scene),
     ]
 

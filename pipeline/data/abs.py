@@ -45,6 +45,7 @@ def fly_dataset(steady: AbsSteady, scene: AbsScene) -> xr.Dataset:
     data["depth"] = var(steady.depth, ("x", "y"), "m", "etch depth of the face")
     data["iterations"] = var(steady.iterations, (), "1", "attitude Newton iterations")
     data["reynolds_solves"] = var(steady.reynolds_solves, (), "1", "sparse Reynolds solves")
+    data["factorizations"] = var(steady.factorizations, (), "1", "sparse LU factorizations of the steady film")
     data["force_residual"] = var(steady.force_residual, (), "1", "force balance residual / preload")
     data["touchdown_adhesion_force"] = var(steady.touchdown_adhesion, (), "N",
                                            "fold estimate: adhesion force with the face lowered at the steady pitch "

@@ -31,6 +31,13 @@ from solver.grid import control_volume_widths
 from solver.kernels import film as kf
 from solver.slip import slip_code
 
+#: A chord iteration of :meth:`AbsFilm.solve_steady` keeps its LU while each residual falls to this share of
+#: the last one; beyond it the Jacobian is factorized afresh.
+CHORD_CONTRACTION = 0.3
+#: Column ordering of the steady Jacobian's sparse LU (SuperLU): minimum degree on A^T + A, the 5-point
+#: Jacobian's pattern being symmetric (about half of COLAMD's fill on the default face).
+STEADY_ORDERING = "MMD_AT_PLUS_A"
+
 #: Reference spacing of the scaled equation [m].
 H_REF = 10.0e-9
 
@@ -105,6 +112,8 @@ class AbsFilm:
         self._pattern = _jacobian_pattern(nx, ny)
         self.reynolds_solves = 0
         self.newton_iterations = 0
+        self.factorizations = 0  # sparse LUs of the steady Jacobian (solve_steady reuses one while it contracts)
+        self._steady_lu = None
 
     # spacing ------------------------------------------------------------------------------------------
 
@@ -213,36 +222,54 @@ class AbsFilm:
         kf.assemble(self.P, self.Hx, self.Hy, self.Hxe, self.Hye, *self._kernel_film)
         return self.scratch.R
 
-    def solve_steady(self, q: np.ndarray, tol: float = 1e-10, max_iter: int = 60) -> int:
+    def solve_steady(self, q: np.ndarray, tol: float = 1e-10, max_iter: int = 60, chord: bool = True) -> int:
         """Steady film at attitude q (warm start from the current P); returns the Newton iterations.
 
-        Newton with the exact Jacobian; a step is shortened so that no node
-        pressure falls below a fifth of its value.  Converged when the
-        scaled residual max |R| / (sum of |flux terms|) is below tol.
+        Newton's method with the exact Jacobian, a step shortened so that no
+        node pressure falls below a fifth of its value.  With ``chord`` the
+        last call's sparse LU is tried first (the attitude search and the
+        continuation call this at nearby attitudes): its steps are kept while
+        each cuts the residual to CHORD_CONTRACTION of the last; the first
+        that does not is taken back, and Newton's method goes on from there.
+        Converged when the scaled residual max |R| / (sum of |flux terms|) is
+        below tol, with or without the chord steps.
         """
         self.fill_faces(q)
         nx, ny = self.shape
         history: list[float] = []
+        P = self.P[0, 1:-1, 1:-1]
+        lu = self._steady_lu if chord else None
+        on_chord, P_before = lu is not None, None
         for it in range(1, max_iter + 1):
             R = self.residual()
             scale = np.max(np.abs(self.scratch.Jcx) + np.abs(self.scratch.Jcy)) + 1e-300
             err = np.max(np.abs(R)) / scale
-            history.append(err)
+            if on_chord and history and err > CHORD_CONTRACTION * history[-1]:
+                P[:] = P_before  # the old Jacobian no longer contracts: take its step back, Newton from here
+                R = self.residual()
+                err, on_chord = history[-1], False
+            else:
+                history.append(err)
             # Converged at tol, or at the round-off floor: below 1e-7 and no longer falling.
             stalled = len(history) > 3 and err < 1e-7 and err > 0.5 * history[-4]
             if err < tol or stalled:
                 self.newton_iterations += it - 1
                 return it - 1
-            J = self.sparse_jacobian()
-            delta = spla.spsolve(J, -R[0, 1:-1, 1:-1].ravel()).reshape(nx - 2, ny - 2)
+            if not on_chord:
+                lu = spla.splu(self.sparse_jacobian(), permc_spec=STEADY_ORDERING)
+                self.factorizations += 1
+                self._steady_lu = lu if chord else None
+            delta = lu.solve(-R[0, 1:-1, 1:-1].ravel()).reshape(nx - 2, ny - 2)
             self.reynolds_solves += 1
-            P = self.P[0, 1:-1, 1:-1]
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(delta < 0, -0.8 * P / delta, np.inf)
             step = min(1.0, float(ratio.min()))
+            P_before = P.copy()
             P += step * delta
             if not np.all(np.isfinite(P)):
+                self._steady_lu = None
                 raise SteadyFilmError(f"steady film diverged at q = {q} (non-finite pressure)")
+        self._steady_lu = None
         raise SteadyFilmError(
             f"steady film did not converge in {max_iter} Newton iterations at q = {q} (scaled residual {err:.2e})"
         )

@@ -12,7 +12,7 @@ import scipy.sparse.linalg as spla
 
 from solver.abs.dynamics import static_forces
 from solver.abs.face import AbsGrid
-from solver.abs.film import AbsFilm, SteadyFilmError
+from solver.abs.film import STEADY_ORDERING, AbsFilm, SteadyFilmError
 from solver.abs.forces import SurfaceForces, SurfaceModel
 from solver.abs.params import AbsScene
 from solver.errors import AttitudeError
@@ -47,6 +47,8 @@ class AbsSteady:
     #: pitch and roll until its lowest patch is at eps, and that lowering [m].
     touchdown_adhesion: float = float("nan")
     touchdown_lowering: float = float("nan")
+    #: Sparse LU factorizations of the steady film's Jacobian (the Reynolds solves reuse them while they contract).
+    factorizations: int = 0
 
 
 def element_row(scene: AbsScene) -> np.ndarray:
@@ -208,6 +210,7 @@ def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None)
         depth=grid.depth,
         iterations=it - 1,
         reynolds_solves=film.reynolds_solves,
+        factorizations=film.factorizations,
         force_residual=float(np.max(np.abs(r))),
         wall_time=time.perf_counter() - wall0,
         touchdown_adhesion=touchdown,
@@ -520,7 +523,8 @@ def _film_jacobian(film: AbsFilm, q: np.ndarray, P_keep: np.ndarray, scale: np.n
     film.P[:] = P_keep
     film.fill_faces(q)
     film.residual()
-    lu = spla.splu(film.sparse_jacobian())
+    lu = spla.splu(film.sparse_jacobian(), permc_spec=STEADY_ORDERING)
+    film.factorizations += 1
     inner = (0, slice(1, -1), slice(1, -1))
     J = np.zeros((3, 3))
     for k in range(3):
