@@ -274,6 +274,10 @@ class AbsFilm:
             f"steady film did not converge in {max_iter} Newton iterations at q = {q} (scaled residual {err:.2e})"
         )
 
+    def keep_steady_lu(self, lu) -> None:
+        """Hand :meth:`solve_steady` an LU of the steady Jacobian (``scipy.sparse.linalg.splu``) to start from."""
+        self._steady_lu = lu
+
     def sparse_jacobian(self) -> sp.csc_matrix:
         """dR/dP at the interior nodes of the last :meth:`residual` (sparse, (nx - 2)(ny - 2) square)."""
         nx, ny = self.shape

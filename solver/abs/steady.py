@@ -525,6 +525,7 @@ def _film_jacobian(film: AbsFilm, q: np.ndarray, P_keep: np.ndarray, scale: np.n
     film.residual()
     lu = spla.splu(film.sparse_jacobian(), permc_spec=STEADY_ORDERING)
     film.factorizations += 1
+    film.keep_steady_lu(lu)  # the exact Jacobian at the solution: the next nearby steady solve starts its chord on it
     inner = (0, slice(1, -1), slice(1, -1))
     J = np.zeros((3, 3))
     for k in range(3):
