@@ -3,6 +3,7 @@ and the steady pressure over the air-bearing surface.  Functions of datasets onl
 
 from __future__ import annotations
 
+import textwrap
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -90,13 +91,16 @@ def plot_study(ds: xr.Dataset) -> Figure:
                                 color=line.get_color())  # fmt: skip
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
     axes[1].set_ylabel("mean contact force [mN]")
+    decades = names is None and x.size > 1 and np.all(x > 0.0) and x.max() > 100.0 * x.min()
     for ax in axes:
-        ax.set_xlabel(_short_name(ds[first], first) + ("" if names else f" [{xunit}]"))
+        ax.set_xlabel(textwrap.fill(_short_name(ds[first], first) + ("" if names else f" [{xunit}]"), 60))
         ax.grid(alpha=0.3)
         ax.set_ylim(bottom=0.0)
         if names:
             ax.set_xticks(x, [n.replace("_", " ") for n in names])
             ax.set_xlim(x[0] - 0.5, x[-1] + 0.5)
+        if decades:  # an axis over decades (a kick's size): log scale
+            ax.set_xscale("log")
     force = np.concatenate([line.get_ydata() for line in axes[1].get_lines()])
     force = force[np.isfinite(force) & (force > 0.0)]
     if force.size and force.max() > 100.0 * force.min():  # forces over decades: a log scale shows all of them

@@ -307,9 +307,10 @@ class AbsInitial(Section):
     zdot_spread: float = quantity(
         0.0,
         "m s-1",
-        "standard deviation of a random vertical velocity added to zdot, drawn from disk.seed in a stream of its "
-        "own (the track stays the same): on a smooth disk it makes the seed sample the initial state, so that a "
-        "study's realisations of a chaotic response (a pad held down by adhesion) give it an interval",
+        "spread of the initial vertical velocity (standard deviation of a normal kick added to zdot, drawn from "
+        "disk.seed in a stream of its own, the track staying the same): on a smooth disk it makes the seed sample "
+        "the initial state, so that a study's realisations of a chaotic response (a pad held down by adhesion) "
+        "give it an interval",
         symbol="sigma_zdot0",
         lo=0.0,
     )
