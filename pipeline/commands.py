@@ -84,37 +84,89 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 # Cost model for --dry-run when the ledger has no finished run of the study yet: cost per film node and step
 # on this machine, by scene kind.  rails: measured by `hdi bench` (0.25-0.38 ms per step at 2 x 201 x 21 nodes);
-# abs: the default chen_bogy2007 run (2.18 ms per step at 121 x 101 nodes, dt 0.05 us; a stuck pad's Newton
-# iterations cost 2-3 times that).
+# abs: the default chen_bogy2007 run (2.18 ms per step at 121 x 101 nodes, dt 0.05 us) of a pad that flies.
 SECONDS_PER_NODE_STEP = {"rails": 4.0e-8, "abs": 1.8e-7}
+#: scene-2 regimes whose pad stays on the disk (pipeline.classify.abs_regime): sustained contact, stuck
+HELD_REGIMES = (2, 3)
+
+
+def node_steps(scene) -> float:
+    """The cost model's unit of a run: film nodes x time steps (each case with its own grid and step)."""
+    num = scene.numerics
+    nodes = (2 if scene.kind == "rails" else 1) * num.nx * num.ny  # rails: two films
+    return nodes * num.t_end / num.dt
+
+
+def held_cost_ratio(ledger) -> tuple[float, int, int] | None:
+    """Time per step of the ledger's scene-2 runs held on the disk over that of the runs that fly or touch.
+
+    (median ratio, runs held, runs flying) from every record of the folder, whichever study wrote it; None
+    with fewer than 3 of either.  A dry run cannot know a cell's regime, so it prints the factor beside
+    an estimate made for flying runs.
+    """
+    import json
+    import statistics
+
+    held, free = [], []
+    for path in ledger.folder.glob("*.json"):
+        try:
+            record = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError):
+            continue
+        wall, steps, regime = record.get("wall_time"), record.get("steps"), record.get("regime")
+        if not (isinstance(wall, float) and isinstance(steps, int) and steps > 0 and isinstance(regime, int)):
+            continue
+        if regime < 0:
+            continue
+        (held if regime in HELD_REGIMES else free).append(wall / steps)
+    if len(held) < 3 or len(free) < 3:
+        return None
+    return statistics.median(held) / statistics.median(free), len(held), len(free)
 
 
 def _estimate(study, ledger, todo: int, workers: int) -> str:
-    import statistics
+    """Cost of the runs still to do: node-steps of each pending case times a rate per node-step.
 
-    walls = []
+    The rate is the study's own (wall time over node-steps of its finished runs in the ledger) once it has
+    any, else the kind's constant above.  Grid mode sums the pending cases, so that an axis of time steps or
+    grids counts each case's steps and nodes; the other modes count ``todo`` runs of the base case.
+    """
     if study.mode == "multifidelity":
         from pipeline.study.multifidelity import cheap_study
 
         study = cheap_study(study)
-    for case in study.cases()[:50] if study.mode == "grid" else []:
-        record = ledger.finished(case.run_id)
-        if record is not None and record.get("wall_time") == record.get("wall_time"):
-            walls.append(record["wall_time"])
-    if walls:
-        per_run, basis = statistics.median(walls), f"median of {len(walls)} finished runs in the ledger"
+    base = study.case((0,) * len(study.axes)).scene
+    kind = base.kind
+    done_walls, done_work, pending_work = 0.0, 0.0, 0.0
+    if study.mode == "grid":
+        for case in study.cases():
+            record = ledger.finished(case.run_id)
+            wall = record.get("wall_time") if record is not None else None
+            if record is None:
+                pending_work += node_steps(case.scene)
+            elif isinstance(wall, float) and wall == wall:
+                done_walls, done_work = done_walls + wall, done_work + node_steps(case.scene)
     else:
-        scene = study.case((0,) * len(study.axes)).scene
-        num = scene.numerics
-        nodes = (2 if scene.kind == "rails" else 1) * num.nx * num.ny  # rails: two films
-        cost = SECONDS_PER_NODE_STEP[scene.kind]
-        per_run = num.t_end / num.dt * nodes * cost
-        basis = f"model: {nodes} nodes x {num.t_end / num.dt:.0f} steps x {cost:g} s"
-    total = todo * per_run
-    return (
-        f"~{per_run:.2f} s per run ({basis}); {todo} runs ~ {total:.0f} core-s, "
-        f"~{total / max(workers, 1) / 60:.1f} min on {workers} workers"
+        pending_work = todo * node_steps(base)
+    if done_work > 0:
+        rate, basis = done_walls / done_work, "rate of this study's finished runs in the ledger"
+    else:
+        rate, basis = SECONDS_PER_NODE_STEP[kind], f"model: {SECONDS_PER_NODE_STEP[kind]:g} s per node and step"
+    total = pending_work * rate
+    per_run = total / todo if todo else 0.0
+    text = (
+        f"~{per_run:.2f} s per run ({basis}; {pending_work / max(todo, 1):.3g} node-steps per run); "
+        f"{todo} runs ~ {total:.0f} core-s, ~{total / max(workers, 1) / 60:.1f} min on {workers} workers"
     )
+    if kind == "abs" and done_work == 0:
+        ratio = held_cost_ratio(ledger)
+        text += (
+            f"\n  (for pads that fly or touch: a run held on the disk took {ratio[0]:.0f}x the time per step in this "
+            f"ledger, median of {ratio[1]} such runs against {ratio[2]})"
+            if ratio
+            else "\n  (for pads that fly or touch: a pad held on the disk by adhesion or preload costs many times more)"
+        )
+    return text
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -11,11 +11,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +26,7 @@ import xarray as xr
 from conftest import cf_errors
 
 from pipeline.cli import main
+from pipeline.commands import held_cost_ratio
 from pipeline.config import ConfigError
 from pipeline.data.netcdf import open_result
 from pipeline.data.studyset import grid_boundary
@@ -178,6 +181,34 @@ def test_dry_run_counts_and_runs_nothing(tmp_path, capsys):
     assert "runs: 6, already done: 0" in text and "estimate" in text
     assert not out.exists()
     assert len(Ledger(tmp_path / ".ledger" / "small")) == 0
+
+
+def test_dry_run_estimate_counts_each_cases_time_steps(tmp_path, capsys):
+    # An axis of time steps: the run at dt / 2 has twice the steps, so the pair costs 1.5 times two runs at dt.
+    def per_run(axes: str, name: str) -> float:
+        study = write_study(tmp_path, axes, name=name)
+        assert main(["run", str(study), "-o", str(tmp_path / f"{name}.nc"), "--dry-run"]) == 0
+        text = capsys.readouterr().out
+        return float(re.search(r"([0-9.e+]+) node-steps per run", text).group(1))
+
+    dt = tomllib.loads(SCENE.read_text())["numerics"]["dt"]
+    at_dt = per_run(MU_ALPHA, "same")  # every case at the scene's dt
+    halved = per_run(f'[[axes]]\nkey = "numerics.dt"\ndim = "dt"\nvalues = [{dt!r}, {dt / 2!r}]\n', "halved")
+    assert at_dt == pytest.approx(2 * 61 * 9 * 100e-6 / dt, rel=5e-3)  # two films of 61 x 9 nodes
+    assert halved / at_dt == pytest.approx(1.5, rel=5e-3)
+
+
+def test_held_cost_ratio_reads_the_ledgers_regimes(tmp_path):
+    ledger = Ledger(tmp_path)
+    for i, (regime, wall, steps) in enumerate([(0, 1.0, 100), (1, 1.2, 100), (0, 2.0, 200), (3, 12.0, 100),
+                                               (2, 24.0, 200), (3, 13.0, 100), (-1, 99.0, 100)]):  # fmt: skip
+        ledger.put({"run_id": f"r{i}", "status": 0, "regime": regime, "wall_time": wall, "steps": steps})
+    ledger.put({"run_id": "rails", "status": 0, "wall_time": 5.0, "steps": 100})  # no regime: not counted
+    ratio, held, free = held_cost_ratio(ledger)
+    assert (held, free) == (3, 3)
+    assert ratio == pytest.approx(0.12 / 0.010)  # medians of the time per step: 12 ms against 1 ms
+    (tmp_path / "r5.json").unlink()
+    assert held_cost_ratio(ledger) is None  # fewer than 3 held runs
 
 
 # ----------------------------------------------------------------------------- ledger and runs
