@@ -74,8 +74,14 @@ def test_a_study_with_realizations_gives_means_intervals_query_and_error_bars(tm
         assert float(ds["bouncing_3sigma_mean"][k]) == pytest.approx(sigma[k].mean(), rel=1e-14, abs=0)
         assert float(ds["bouncing_3sigma_ci95"][k]) == pytest.approx(0.5 * (high - low), rel=1e-12, abs=0)
     text = table(ds, [], ["bouncing_3sigma", "mean_contact_force"])
-    header, _columns, _index, *rows = text.splitlines()
+    header, columns, index, *rows = text.splitlines()
     assert "over 3 realisations" in header and len(rows) == 2 and all(row.count(" +- ") == 2 for row in rows)
+    # display units: nanometres, millinewtons, the pad width in micrometres
+    assert "bouncing_3sigma [nm]" in columns and "mean_contact_force [mN]" in columns and "pad_width [um]" in index
+    width, sigma_nm, _, sigma_half = rows[0].split()[:4]
+    assert float(width) == pytest.approx(float(ds["pad_width"][0]) * 1e6, rel=1e-3)
+    assert float(sigma_nm) == pytest.approx(float(ds["bouncing_3sigma_mean"][0]) * 1e9, rel=1e-3)
+    assert float(sigma_half) == pytest.approx(float(ds["bouncing_3sigma_ci95"][0]) * 1e9, rel=1e-1)
     png = save_figure(plot_dataset(ds), tmp_path / "real.png")
     assert png.stat().st_size > 10_000
 

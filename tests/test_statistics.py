@@ -85,6 +85,19 @@ def test_samples_that_do_not_shrink_give_a_slope_outside_the_independent_range()
     assert np.mean((slopes < low) | (slopes > high)) > 0.9
 
 
+def test_display_units_follow_the_quantity_and_its_range():
+    from pipeline.data.units import display_scale
+
+    assert display_scale("m", [2.1e-9, np.nan]) == (1e9, "nm")  # a flying height
+    assert display_scale("m", [60e-6, 140e-6]) == (1e6, "um")  # a pad width
+    assert display_scale("N", [7.8e-3]) == (1e3, "mN")
+    assert display_scale("Hz", [7.0e5]) == (1e-3, "kHz")
+    assert display_scale("rad", [1.3e-4]) == (1e6, "urad")
+    assert display_scale("s", [1e-7, 2.5e-8]) == (1e6, "us")  # a time step
+    assert display_scale("s", [24.0]) == (1.0, "s") and display_scale("s") == (1.0, "s")  # a wall time
+    assert display_scale("J m-2", [0.08]) == (1.0, "J m-2") and display_scale("") == (1.0, "1")
+
+
 def test_category_fractions_sum_to_one_over_classified_samples():
     flags = np.array([[0, 1, 1, 3], [-1, -1, 2, 2], [-1, -1, -1, -1]])
     fractions, count = sampling.category_fractions(flags, 4)

@@ -19,6 +19,7 @@ import xarray as xr
 from pipeline.config import ConfigError, parse_override
 from pipeline.data.netcdf import open_result
 from pipeline.data.sampling import report_text
+from pipeline.data.units import display_scale
 from pipeline.kinds import adapter_of
 from pipeline.study.spec import REALIZATION
 
@@ -92,12 +93,32 @@ def _mean_table(cells: xr.Dataset, names: list[str], category: str | None = None
     for name in names:
         mean = cells[f"{name}_mean"].to_series()
         half = cells[f"{name}_ci95"].to_series()
-        columns[f"{name} [{cells[name].attrs.get('units', '')}]"] = [
-            f"{m:.4g} +- {h:.2g}" for m, h in zip(mean.values, half.values, strict=True)
+        scale, shown = display_scale(cells[name].attrs.get("units", ""), mean.values)
+        columns[f"{name} [{shown}]"] = [
+            f"{m * scale:.4g} +- {h * scale:.2g}" for m, h in zip(mean.values, half.values, strict=True)
         ]
         index = mean.index
-    frame = pd.DataFrame(columns, index=index)
+    frame = pd.DataFrame(columns, index=_display_index(cells, index))
     return f"mean +- half-width of the 95 % confidence interval over {n} realisations\n" + frame.to_string()
+
+
+def _display_index(ds: xr.Dataset, index: pd.Index) -> pd.Index:
+    """The cells' coordinates in display units, to 4 significant digits, named "dim [unit]" (dt [us], rms [nm])."""
+    names = list(index.names)
+    levels = [index.get_level_values(k) for k in range(len(names))]
+    shown_levels, shown_names = [], []
+    for name, level in zip(names, levels, strict=True):
+        coord = ds[name] if name in ds.coords else None
+        if coord is None or coord.dtype.kind not in "fiu":
+            shown_levels.append(list(level))
+            shown_names.append(name)
+            continue
+        scale, unit = display_scale(coord.attrs.get("units", ""), coord.values)
+        shown_levels.append([float(f"{v * scale:.4g}") for v in level])
+        shown_names.append(f"{name} [{unit}]" if unit != "1" else name)
+    if len(names) == 1:
+        return pd.Index(shown_levels[0], name=shown_names[0])
+    return pd.MultiIndex.from_arrays(shown_levels, names=shown_names)
 
 
 def query(path: str | Path, where: list[str], variables: list[str] | None = None) -> str:

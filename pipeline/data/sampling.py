@@ -41,6 +41,7 @@ from scipy import special
 from scipy.stats import t as student
 
 from pipeline.data.netcdf import var
+from pipeline.data.units import display_scale
 
 #: Confidence level of every interval of a mean over realisations.
 CONFIDENCE = 0.95
@@ -229,25 +230,35 @@ def report_text(ds: xr.Dataset) -> str:
     dim = ds.attrs["refinement_axis"]
     low, high = (float(v) for v in ds["se_slope_range"].values)
     names = [str(v)[: -len("_se_slope")] for v in ds.data_vars if str(v).endswith("_se_slope")]
+    dscale, dunit = display_scale(ds[dim].attrs.get("units", ""), ds[dim].values)
+    at = f"{ds.attrs['refinement_reference'] * dscale:g} {dunit}".removesuffix(" 1")
     lines = [
-        f"intervals of the mean against {dim} (reference: the last value, {ds.attrs['refinement_reference']:g}); "
+        f"intervals of the mean against {dim} (reference: the last value, {at}); "
         f"slope of the standard error against n: -1/2 expected, 95 % range for independent normal samples "
         f"[{low:.3f}, {high:.3f}]"
     ]
     for name in names:
         units = ds[name].attrs.get("units", "")
-        scale, shown = (1e9, "nm") if units == "m" else (1e3, "mN") if units == "N" else (1.0, units)
+        scale, shown = display_scale(units)
         rows = []
         stacked = ds[[f"{name}_mean", f"{name}_ci95", f"{name}_overlap", f"{name}_paired_difference",
                       f"{name}_paired_difference_ci95", f"{name}_se_slope"]].to_dataframe()  # fmt: skip
+        levels = list(stacked.index.names)
         for index, r in stacked.iterrows():
             overlap = {1: "yes", 0: "NO", -1: "-"}[int(r[f"{name}_overlap"])]
             slope = r[f"{name}_se_slope"]
             inside = "" if not np.isfinite(slope) else (" (in range)" if low <= slope <= high else " (OUT of range)")
             rows.append(
-                f"  {index!s:<28} {r[f'{name}_mean'] * scale:10.4g} +- {r[f'{name}_ci95'] * scale:<9.2g} "
+                f"  {_shown(index, levels, dim, dscale):<28} {r[f'{name}_mean'] * scale:10.4g} "
+                f"+- {r[f'{name}_ci95'] * scale:<9.2g} "
                 f"overlap {overlap:<4} paired diff {r[f'{name}_paired_difference'] * scale:+10.3g} "
                 f"+- {r[f'{name}_paired_difference_ci95'] * scale:<9.2g} slope {slope:+.3f}{inside}"
             )
         lines += [f"{name} [{shown}]", *rows]
     return "\n".join(lines)
+
+
+def _shown(index: object, names: list[str], dim: str, scale: float) -> str:
+    """A report row's cell: its coordinates, the refinement axis ``dim`` in display units (``scale``)."""
+    values = index if isinstance(index, tuple) else (index,)
+    return " ".join(f"{v * scale:.4g}" if name == dim else str(v) for name, v in zip(names, values, strict=True))

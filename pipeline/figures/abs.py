@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import xarray as xr
 
+from pipeline.data.units import display_scale
 from pipeline.figures.common import pyplot
 
 if TYPE_CHECKING:
@@ -392,7 +393,7 @@ def plot_statistics(ds: xr.Dataset) -> Figure:
     others = [d for d in ds[f"{names[0]}_mean"].dims if d != dim]
     for row, name in zip(axes, names, strict=True):
         units = ds[name].attrs.get("units", "")
-        scale, shown = (1e9, "nm") if units == "m" else (1e3, "mN") if units == "N" else (1.0, units or "1")
+        scale, shown = display_scale(units)
         cells = ds.stack(cell=others) if others else ds.expand_dims(cell=[0])
         for c in range(cells.sizes["cell"]):
             cell = cells.isel(cell=c)
