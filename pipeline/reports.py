@@ -168,4 +168,4 @@ def rails_progress(record: dict[str, Any]) -> str:
 def abs_progress(record: dict[str, Any]) -> str:
     regime = REGIMES[record["regime"]] if record.get("regime", -1) >= 0 else "not classified"
     return (f"3sigma {record['bouncing_3sigma'] * 1e9:7.4f} nm, contact force "
-            f"{record['mean_contact_force'] * 1e3:8.5f} mN, {regime}")  # fmt: skip
+            f"{record['mean_contact_force'] * 1e3:9.4g} mN, {regime}")  # fmt: skip
