@@ -105,7 +105,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="scene 2: git ref of today's solver, timed in a temporary worktree ('' to skip)")  # fmt: skip
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("reproduce", help="the main job: scene-1 flight, two contact runs, Figure 17, into results/")
+    p = sub.add_parser("reproduce", help="the main job: scenes 1 and 2, their studies and the bench, into results/")
     p.add_argument("--results", default=str(RESULTS), help="output folder (default: results/)")
     p.add_argument("--workers", type=int, help="local worker processes for the studies (default: one per core)")
     p.add_argument("--skip-studies", action="store_true", help="only the flight and the two contact runs")
@@ -116,8 +116,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="leave out scene 2 (flight, one run, four Table-I studies, regime map, statistics)",
     )
     p.add_argument("--quick", action="store_true",
-                   help="scene 2 without the statistics study (3 time steps x 12 realisations; the dt = 0.1 and "
-                        "0.05 us runs cost 2 and 4 times the default)")  # fmt: skip
+                   help="scene 2 without the statistics study (3 time steps x 8 realisations; the dt = 0.05 and "
+                        "0.025 us runs cost 2 and 4 times the default)")  # fmt: skip
     p.add_argument("-q", "--quiet", action="store_true", help="no line per finished study run")
     p.set_defaults(func=cmd_reproduce)
     return parser
