@@ -183,6 +183,14 @@ ABS_OUTPUTS: dict[str, Output] = {
     "steady_contact_force": Output(np.float64, np.nan, "N", "steady contact force (statistical roughness)"),
     "steps": COMMON_OUTPUTS["steps"],
     "newton_iterations": COMMON_OUTPUTS["newton_iterations"],
+    "substeps": Output(np.int32, -1, "1",
+                       "accepted steps and substeps (a step split for contact counts each of its substeps)",
+                       MISSING_COUNT),
+    "contact_damped": Output(np.int32, -1, "1",
+                             "contact substeps taken with numerics.rho_infinity_contact (contact too stiff even "
+                             "for the finest substep)", MISSING_COUNT),
+    "reynolds_solves": Output(np.int32, -1, "1", "Reynolds solves of the film (its steps and derivative refreshes)",
+                              MISSING_COUNT),
     "wall_time": COMMON_OUTPUTS["wall_time"],
 }  # fmt: skip
 
@@ -239,6 +247,9 @@ def abs_record(scene: Any, result: Any, impacts_kept: int) -> dict[str, Any]:
         "message": result.message,
         "steps": int(result.work["steps"]),
         "newton_iterations": int(result.work["newton_iterations"]),
+        "substeps": int(result.work["substeps"]),
+        "contact_damped": int(result.work["contact_damped"]),
+        "reynolds_solves": int(result.work["reynolds_solves"]),
         "steady_flying_height": steady.element_spacing,
         "steady_pitch": float(steady.q[1]),
         "steady_roll": float(steady.q[2]),

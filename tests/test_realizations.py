@@ -69,6 +69,10 @@ def test_a_study_with_realizations_gives_means_intervals_query_and_error_bars(tm
     assert ds["realization"].attrs["scene_key"] == "disk.seed"
     sigma = ds["bouncing_3sigma"].values
     assert np.ptp(sigma, axis=1).min() > 0.0, "the seeds should give different tracks"
+    # the work counters: every step is one substep or more, each advances the film, damped ones are substeps
+    steps, substeps = ds["steps"].values, ds["substeps"].values
+    assert (steps > 0).all() and (substeps >= steps).all() and (ds["reynolds_solves"].values >= substeps).all()
+    assert ((ds["contact_damped"].values >= 0) & (ds["contact_damped"].values <= substeps)).all()
     for k in range(2):
         low, high = stats.t.interval(0.95, 2, loc=sigma[k].mean(), scale=stats.sem(sigma[k]))
         assert float(ds["bouncing_3sigma_mean"][k]) == pytest.approx(sigma[k].mean(), rel=1e-14, abs=0)
