@@ -146,6 +146,9 @@ def abs_run(result: Any, ds: xr.Dataset, scene: Any) -> list[str]:
         f"{float(ds['pitch_peak_frequency']) * 1e-3:.1f} kHz, roll {float(ds['roll_peak_frequency']) * 1e-3:.1f} kHz",
         f"  work: {w['steps']} steps on {w['nodes']} nodes, {w['newton_iterations']} Newton iterations, "
         f"{w['wall_time']:.2f} s ({w['wall_time'] / max(w['steps'], 1) * 1e3:.3f} ms/step)",
+        f"        {w['substeps']} substeps ({w['contact_substeps']} of split steps, {w['contact_damped']} with "
+        f"rho_inf {scene.numerics.rho_infinity_contact:g}: contact too stiff for the finest), "
+        f"{w['reynolds_solves']} Reynolds solves",
     ]
 
 
