@@ -415,6 +415,8 @@ def plot_statistics(ds: xr.Dataset) -> Figure:
         row[0].set_title(f"{name}: 95 % half-width h$_n$ of the first n (line: fit, dotted: slope -1/2)",
                          fontsize=9)  # fmt: skip
         row[0].set_xlabel("realisations n")
+        row[0].set_xticks(n, [str(int(k)) for k in n])  # plain integers on the log axis, not 2 x 10^0
+        row[0].xaxis.set_minor_formatter("")
         row[0].set_ylabel(f"half-width [{shown}]")
         row[0].legend(fontsize=7, frameon=False, title=f"fitted se slope; independent: [{low:.2f}, {high:.2f}]",
                       title_fontsize=7)  # fmt: skip
