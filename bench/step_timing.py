@@ -4,7 +4,9 @@ Cases (``--case``, all by default):
 
 * ``rails-101x21``: scene 1 with mu = 0.5, alpha = 0.85 on its default grid (dt 0.4 us, 750 steps);
 * ``rails-201x21``: the same on the source's 201 x 21 grid;
-* ``abs-121x101``: scene 2 (studies/scenes/chen_bogy2007.toml, 121 x 101, dt 0.2 us) from steady flight.
+* ``abs-121x101``: scene 2 (studies/scenes/chen_bogy2007.toml, 121 x 101, its dt) from steady flight;
+* ``abs-stuck``: the same at delta_gamma 0.08 J/m2 (Table I's stuck cell), held on the disk from its start;
+* ``abs-mtp``: the micro-pad design (studies/scenes/chen_bogy2007_mtp.toml: asperity adhesion, contact damping).
 
 Scene 1 reports a run's wall and CPU time over its steps (setting up a run
 costs a few steps).  Scene 2 sets up a steady film (a sparse Newton solve)
@@ -53,6 +55,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 RAILS_SCENE = ROOT / "studies" / "scenes" / "benson1989.toml"
 ABS_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007.toml"
+MTP_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007_mtp.toml"
 OVERRIDES = {"contact.mu": 0.5, "contact.alpha": 0.85}
 #: Scene 2: steps of the short and the long run whose difference is timed.
 ABS_STEPS = (10, 110)
@@ -60,6 +63,10 @@ CASES = {
     "rails-101x21": (RAILS_SCENE, OVERRIDES),
     "rails-201x21": (RAILS_SCENE, {**OVERRIDES, "numerics.nx": 201}),
     "abs-121x101": (ABS_SCENE, {"numerics.settle_time": 0.0}),
+    # Table I's stuck cell (dgamma 0.08): no flying equilibrium, the run starts held on the disk beyond the fold,
+    # every step split into 8 contact substeps with the pad's cells near the wall
+    "abs-stuck": (ABS_SCENE, {"numerics.settle_time": 0.0, "contact.delta_gamma": 0.08, "initial.zdot_spread": 1e-6}),
+    "abs-mtp": (MTP_SCENE, {"numerics.settle_time": 0.0}),
 }
 
 
@@ -92,13 +99,13 @@ def rails_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float
     return lambda: per_step(lambda: simulate(scene, steady).work["steps"])
 
 
-def abs_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float]]:
-    """A function running scene 2 twice (ABS_STEPS) and returning the (wall, CPU) seconds per extra step."""
+def abs_timer(path: Path, overrides: dict[str, object]) -> Callable[[], tuple[float, float]]:
+    """A function running a scene-2 file twice (ABS_STEPS) and returning the (wall, CPU) seconds per extra step."""
     from solver.abs.integrate import simulate_abs
     from solver.abs.steady import fly_start
 
-    dt = load_scene(ABS_SCENE, overrides).numerics.dt
-    short, long = (load_scene(ABS_SCENE, {**overrides, "numerics.t_end": n * dt}) for n in ABS_STEPS)
+    dt = load_scene(path, overrides).numerics.dt
+    short, long = (load_scene(path, {**overrides, "numerics.t_end": n * dt}) for n in ABS_STEPS)
     steady = fly_start(short)
     simulate_abs(short, steady)  # warm-up (JIT, caches)
 
@@ -134,7 +141,10 @@ def step_times(
 
     With ``barrier``, the timing starts once ``peers`` processes have built their timers (:func:`wait_for_peers`).
     """
-    timers = {case: (abs_timer if CASES[case][0] == ABS_SCENE else rails_timer)(CASES[case][1]) for case in cases}
+    timers = {
+        case: abs_timer(path, overrides) if path != RAILS_SCENE else rails_timer(overrides)
+        for case, (path, overrides) in ((case, CASES[case]) for case in cases)
+    }
     if barrier is not None:
         wait_for_peers(barrier, peers)
     samples: dict[str, list[tuple[float, float]]] = {case: [] for case in cases}

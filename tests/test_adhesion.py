@@ -459,26 +459,35 @@ def test_the_adhesion_cache_is_the_exact_law_near_its_cells(asperity_flight):
 
 
 @pytest.mark.jitless
-def test_the_vectorized_fill_is_the_flat_law_cell_by_cell():
-    """fill_flat_adhesion (one Gauss-Hermite pass over every cell, the rest again by the scalar law) against
-    adhesion_with_curvature on cells far from the wall, near it, in contact, on a smooth disk and beyond the
-    law's range: pressure and slope within 1e-14 of each cell's own, the curvature within 1e-12."""
+@pytest.mark.parametrize("law", ["flat", "asperity_dmt"])
+def test_the_vectorized_fill_is_the_law_cell_by_cell(law):
+    """fill_flat_adhesion and fill_asperity_adhesion (one Gauss-Hermite pass over every cell, the cells near the
+    wall in one pass of near_wall_expectations, the rest again by the scalar law) against adhesion_with_curvature
+    on cells far from the wall, near it (a quarter of them), in contact, fully compressed, on a smooth disk and
+    beyond the flat law's range: pressure and slope within 1e-14 of each cell's own, the curvature within 1e-12
+    (of the largest of the terms it sums where they cancel)."""
     rng = np.random.default_rng(7)
     n = 600
-    sigma = np.concatenate([10 ** rng.uniform(-12.0, -9.0, n - 3), [0.0, 0.2e-9, 0.2e-9]])
-    tau = np.concatenate([rng.uniform(-8.0, 400.0, n - 3), [2.0, 9.0, 0.0]])
+    sigma = np.concatenate([10 ** rng.uniform(-12.0, -9.0, n - 4), [0.0, 0.2e-9, 0.2e-9, 0.2e-9]])
+    tau = np.concatenate([rng.uniform(-8.0, 400.0, n - 154), rng.uniform(-7.5, 9.0, 150), [2.0, 9.0, 0.0, -7.0]])
     d = EPS + sigma * tau
-    d[-3] = 0.5e-9  # smooth disk above the wall
-    d[-1] = 4e-6  # beyond LJ_RANGE eps
+    d[-4] = 0.5e-9  # smooth disk above the wall
+    d[-2] = 4e-6  # beyond LJ_RANGE eps
     b = rng.normal(size=(3, n))
     q = np.array([1e-9, 2e-6, -3e-6])
     offset = d - q @ b
     adh_coef = adhesion_coefficient(DGAMMA, EPS)
     cache = tuple(np.empty(n) for _ in range(4))
-    kernels.fill_flat_adhesion(offset, sigma, b, q, EPS, adh_coef, cache)
+    if law == "flat":
+        kernels.fill_flat_adhesion(offset, sigma, b, q, EPS, adh_coef, cache)
+    else:
+        kernels.fill_asperity_adhesion(offset, sigma, b, q, EPS, adh_coef, SUMMIT_COEF, cache)
     assert np.allclose(cache[0], d, rtol=0.0, atol=1e-20)  # offset + b . q, to the round-off of b . q
+    near = 0
     for i in range(n):
-        p, slope, curv = kernels.adhesion_with_curvature(cache[0][i], sigma[i], EPS, adh_coef, KERNEL_LAWS["flat"],
+        p, slope, curv = kernels.adhesion_with_curvature(cache[0][i], sigma[i], EPS, adh_coef, KERNEL_LAWS[law],
                                                          SUMMIT_COEF)  # fmt: skip
+        near += sigma[i] > 0.0 and kernels.TAU_NO_ADHESION <= (cache[0][i] - EPS) / sigma[i] < kernels.N_SIGMA
         for got, want, tol in ((cache[1][i], p, 1e-14), (cache[2][i], slope, 1e-14), (cache[3][i], curv, 1e-12)):
             assert abs(got - want) <= tol * abs(want) or got == want == 0.0, (i, tau[i], sigma[i], got, want)
+    assert near >= 150

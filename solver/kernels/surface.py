@@ -455,13 +455,115 @@ def flat_adhesion_far(d: float, sigma: float, eps: float, adh_coef: float) -> tu
 
 
 @njit
+def near_wall_expectations(
+    d: np.ndarray, sigma: np.ndarray, eps: float, adh_coef: float, energy: bool, curvature: bool, out: np.ndarray
+) -> None:
+    """:func:`_gap_expectations` near the wall (TAU_NO_ADHESION <= t < N_SIGMA) for many cells at once, into
+    ``out`` (4, n): E[p_LJ], E[p_LJ'], E[W] (if ``energy``, else 0), E[p_LJ''] (if ``curvature``, else 0).
+
+    The same panels and nodes as the cell-by-cell quadrature, taken panel by panel and node by node over the
+    cells (sorted by their number of panels, so that the cells that have a panel m are a prefix), so that the
+    innermost loop runs over cells without calls or branches and vectorizes; the Gaussian weight by
+    :func:`solver.kernels.elementary.exp_minus`.  Every cell's sum is taken in the cell-by-cell order, so the
+    values differ from :func:`_gap_expectations`' only by exp_minus' ulps against libm's exp.
+    """
+    n = d.size
+    h_hi = np.empty(n)
+    panels = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        tau = (d[i] - eps) / sigma[i]
+        h_hi[i] = d[i] + sigma[i] * math.sqrt(min(tau, 0.0) ** 2 + 2.0 * GAUSS_TAIL)
+        start, m = eps, 0
+        while start < h_hi[i]:
+            end = start + min(PANEL_SIGMAS * sigma[i], PANEL_GROWTH * start)
+            if end > h_hi[i] - PANEL_MERGE * (end - start):
+                end = h_hi[i]
+            start = end
+            m += 1
+        panels[i] = m
+    order = np.argsort(-panels, kind="mergesort")  # most panels first
+    count = panels[order[0]] if n > 0 else 0
+    active = np.zeros(count, dtype=np.int64)  # cells that have a panel m: the first active[m] in this order
+    ds, inv_sigma = np.empty(n), np.empty(n)
+    half, mid = np.zeros((count, n)), np.full((count, n), eps)
+    for r in range(n):
+        i = order[r]
+        ds[r] = d[i]
+        inv_sigma[r] = 1.0 / sigma[i]
+        start, m = eps, 0
+        while start < h_hi[i]:
+            end = start + min(PANEL_SIGMAS * sigma[i], PANEL_GROWTH * start)
+            if end > h_hi[i] - PANEL_MERGE * (end - start):
+                end = h_hi[i]
+            half[m, r] = 0.5 * (end - start)
+            mid[m, r] = 0.5 * (end + start)
+            active[m] = r + 1
+            start = end
+            m += 1
+    p, slope, work, curv = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)  # one array each: no aliasing
+    energy_coef = 0.125 * adh_coef * eps
+    for m in range(count):
+        half_m, mid_m = half[m].copy(), mid[m].copy()
+        n_m = active[m]
+        for k in range(_GL_NODES.size):
+            node, weight = _GL_NODES[k], _GL_WEIGHTS[k]
+            if energy:
+                for i in range(n_m):
+                    h = mid_m[i] + half_m[i] * node
+                    s = (ds[i] - h) * inv_sigma[i]
+                    w = half_m[i] * weight * exp_minus(0.5 * s * s)
+                    inv_h = 1.0 / h  # lj_pressure's and lj_energy's arithmetic, operation for operation
+                    u = eps * inv_h
+                    u3 = u * u * u
+                    u9 = u3 * u3 * u3
+                    p[i] += w * (adh_coef * (u9 - u3))
+                    slope[i] += w * (adh_coef * (3.0 * u3 - 9.0 * u9) * inv_h)
+                    v = eps / h
+                    v2 = v * v
+                    v4 = v2 * v2
+                    work[i] += w * (energy_coef * (v4 * v4 - 4.0 * v2))
+            if curvature:
+                for i in range(n_m):
+                    h = mid_m[i] + half_m[i] * node
+                    s = (ds[i] - h) * inv_sigma[i]
+                    w = half_m[i] * weight * exp_minus(0.5 * s * s)
+                    inv_h = 1.0 / h  # lj_pressure's and lj_curvature's
+                    u = eps * inv_h
+                    u3 = u * u * u
+                    u9 = u3 * u3 * u3
+                    if not energy:
+                        p[i] += w * (adh_coef * (u9 - u3))
+                        slope[i] += w * (adh_coef * (3.0 * u3 - 9.0 * u9) * inv_h)
+                    curv[i] += w * (adh_coef * (90.0 * u3 * u3 * u3 - 12.0 * u3) * inv_h * inv_h)
+            if not energy and not curvature:
+                for i in range(n_m):
+                    h = mid_m[i] + half_m[i] * node
+                    s = (ds[i] - h) * inv_sigma[i]
+                    w = half_m[i] * weight * exp_minus(0.5 * s * s)
+                    inv_h = 1.0 / h
+                    u = eps * inv_h
+                    u3 = u * u * u
+                    u9 = u3 * u3 * u3
+                    p[i] += w * (adh_coef * (u9 - u3))
+                    slope[i] += w * (adh_coef * (3.0 * u3 - 9.0 * u9) * inv_h)
+    for r in range(n):
+        norm = inv_sigma[r] / _SQRT_2PI
+        i = order[r]
+        out[0, i] = p[r] * norm
+        out[1, i] = slope[r] * norm
+        out[2, i] = work[r] * norm
+        out[3, i] = curv[r] * norm
+
+
+@njit
 def fill_flat_adhesion(
     offset: np.ndarray, sigma: np.ndarray, b: np.ndarray, q: np.ndarray, eps: float, adh_coef: float, cache: tuple
 ) -> None:
     """The flat law's adhesion with its curvature at every cell, into ``cache`` = (d, p_a, p_a', p_a'').
 
-    One pass of :func:`flat_adhesion_far` over all cells (it vectorizes), then :func:`_flat_adhesion` again on
-    the cells outside its reach (near the wall, a smooth disk, beyond LJ_RANGE): the values of
+    One pass of :func:`flat_adhesion_far` over all cells (it vectorizes); the cells near the wall again by
+    :func:`near_wall_expectations` (it vectorizes too: a pad held on the disk has every cell there), the rest
+    (a smooth disk, no adhesion, beyond LJ_RANGE) by :func:`_flat_adhesion`: the values of
     :func:`adhesion_with_curvature` cell by cell, to round-off.
     """
     cache_d, cache_p, cache_dp, cache_d2p = cache
@@ -471,10 +573,107 @@ def fill_flat_adhesion(
         cache_d[i] = d
         s = sigma[i] if sigma[i] > 0.0 else eps  # a smooth disk's cells are taken again below
         cache_p[i], cache_dp[i], cache_d2p[i] = flat_adhesion_far(d, s, eps, adh_coef)
+    near = np.empty(offset.size, dtype=np.int64)
+    n_near = 0
     for i in range(offset.size):
         d, s = cache_d[i], sigma[i]
         if s <= 0.0 or (d - eps) / s < N_SIGMA or d - N_SIGMA * s > LJ_RANGE * eps:
-            cache_p[i], cache_dp[i], cache_d2p[i] = _flat_adhesion(d, s, eps, adh_coef, True)
+            if s > 0.0 and (d - eps) / s >= TAU_NO_ADHESION and d - N_SIGMA * s <= LJ_RANGE * eps:
+                near[n_near] = i
+                n_near += 1
+            else:
+                cache_p[i], cache_dp[i], cache_d2p[i] = _flat_adhesion(d, s, eps, adh_coef, True)
+    if n_near == 0:
+        return
+    d_near, s_near = np.empty(n_near), np.empty(n_near)
+    for k in range(n_near):
+        d_near[k], s_near[k] = cache_d[near[k]], sigma[near[k]]
+    out = np.empty((4, n_near))
+    near_wall_expectations(d_near, s_near, eps, adh_coef, False, True, out)
+    for k in range(n_near):
+        i = near[k]
+        d, s = d_near[k], s_near[k]
+        tau = (d - eps) / s
+        cache_p[i], cache_dp[i] = out[0, k], out[1, k]
+        cache_d2p[i] = out[3, k] - 6.0 * adh_coef / eps * math.exp(-0.5 * tau * tau) / (s * _SQRT_2PI)
+
+
+@njit(inline=True)
+def asperity_adhesion_far(d: float, sigma: float, eps: float, adh_coef: float) -> tuple[float, float, float]:
+    """E[p_LJ], E[p_LJ'] and E[W] by Gauss-Hermite (t >= N_SIGMA; :func:`_gap_expectations`' nodes) without
+    branches or libm calls, so that a loop over cells vectorizes: the asperity law's sums."""
+    p = slope = work = 0.0
+    energy_coef = 0.125 * adh_coef * eps
+    for k in range(_GH_NODES.size):
+        h = d - sigma * _GH_NODES[k]
+        inv_h = 1.0 / h
+        u = eps * inv_h
+        u2 = u * u
+        u3 = u2 * u
+        u9 = u3 * u3 * u3
+        w = _GH_WEIGHTS[k]
+        p += w * (adh_coef * (u9 - u3))
+        slope += w * (adh_coef * (3.0 * u3 - 9.0 * u9) * inv_h)
+        u4 = u2 * u2
+        work += w * (energy_coef * (u4 * u4 - 4.0 * u2))
+    return p, slope, work
+
+
+@njit
+def fill_asperity_adhesion(
+    offset: np.ndarray,
+    sigma: np.ndarray,
+    b: np.ndarray,
+    q: np.ndarray,
+    eps: float,
+    adh_coef: float,
+    summit_coef: float,
+    cache: tuple,
+) -> None:
+    """The asperity law's adhesion with its curvature at every cell, into ``cache`` = (d, p_a, p_a', p_a'').
+
+    As :func:`fill_flat_adhesion`: one vectorized Gauss-Hermite pass (:func:`asperity_adhesion_far`), the cells
+    near the wall again by :func:`near_wall_expectations`, a smooth disk's and the fully compressed cells by
+    :func:`_asperity_adhesion`; the compressed fraction Q(t) by ``math.erfc`` in a loop of its own.  The values of
+    :func:`adhesion_with_curvature` cell by cell, to round-off.
+    """
+    cache_d, cache_p, cache_dp, cache_d2p = cache
+    n = offset.size
+    dgamma = 0.375 * adh_coef * eps
+    q0, q1, q2 = q[0], q[1], q[2]
+    work = np.empty(n)
+    for i in range(n):
+        d = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
+        cache_d[i] = d
+        s = sigma[i] if sigma[i] > 0.0 else eps  # a smooth disk's cells are taken again below
+        cache_dp[i], cache_d2p[i], work[i] = asperity_adhesion_far(d, s, eps, adh_coef)
+    near = np.empty(n, dtype=np.int64)
+    n_near = 0
+    for i in range(n):
+        d, s = cache_d[i], sigma[i]
+        if s <= 0.0 or (d - eps) / s < TAU_NO_ADHESION:
+            cache_p[i], cache_dp[i], cache_d2p[i] = _asperity_adhesion(d, s, eps, adh_coef, summit_coef)
+            continue
+        tau = (d - eps) / s
+        if tau < N_SIGMA:
+            near[n_near] = i
+            n_near += 1
+        compressed = 0.5 * math.erfc(tau * _INV_SQRT2)  # fraction of summits past the wall
+        cache_p[i] = summit_coef * (work[i] - dgamma * compressed)
+        cache_dp[i], cache_d2p[i] = -summit_coef * cache_dp[i], -summit_coef * cache_d2p[i]
+    if n_near == 0:
+        return
+    d_near, s_near = np.empty(n_near), np.empty(n_near)
+    for k in range(n_near):
+        d_near[k], s_near[k] = cache_d[near[k]], sigma[near[k]]
+    out = np.empty((4, n_near))
+    near_wall_expectations(d_near, s_near, eps, adh_coef, True, False, out)
+    for k in range(n_near):
+        i = near[k]
+        tau = (d_near[k] - eps) / s_near[k]
+        compressed = 0.5 * math.erfc(tau * _INV_SQRT2)
+        cache_p[i] = summit_coef * (out[2, k] - dgamma * compressed)
+        cache_dp[i], cache_d2p[i] = -summit_coef * out[0, k], -summit_coef * out[1, k]
 
 
 @njit
@@ -521,6 +720,9 @@ def generalized_forces(
     cache_d, cache_p, cache_dp, cache_d2p = cache
     if mode == CACHE_FILL and adhesion_law == ADHESION_FLAT:
         fill_flat_adhesion(offset, sigma, b, q, eps, adh_coef, cache)
+        mode = CACHE_USE  # the cache now holds every cell at this q: the loop below reads it
+    elif mode == CACHE_FILL and adhesion_law == ADHESION_ASPERITY:
+        fill_asperity_adhesion(offset, sigma, b, q, eps, adh_coef, summit_coef, cache)
         mode = CACHE_USE  # the cache now holds every cell at this q: the loop below reads it
     f0 = f1 = f2 = 0.0  # scalar accumulators: f, the upper triangle of the symmetric part, the friction row
     j00 = j01 = j02 = j11 = j12 = j22 = 0.0
