@@ -140,6 +140,30 @@ def test_contact_pressure_smooth_limit():
 # --- adhesion ---------------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.jitless
+def test_the_vectorized_contact_pass_is_the_law_cell_by_cell():
+    """fill_contact_pressures (one branch-free pass, then cell by cell where it does not apply) against
+    contact_pressure on cells at every t of the tables, at their joins, below T_ASYMPTOTIC, beyond T_ZERO, on a
+    smooth disk and at nan: within 1e-14 of each cell's own pressure and slope (beyond t = 37.6, where phi(t) falls
+    below the smallest normal number, the pass gives 0 where libm's exp gives subnormal pressures below 1e-290 Pa)."""
+    rng = np.random.default_rng(3)
+    eps = 0.3e-9
+    joins = np.arange(kernels.T_ASYMPTOTIC, kernels.T_ZERO + 1.0)
+    t = np.concatenate([rng.uniform(-12.0, 45.0, 2000), joins, np.nextafter(joins, -np.inf), [-1e3, 1e3, np.nan]])
+    sigma = 10 ** rng.uniform(-12.0, -9.0, t.size)
+    d = eps + sigma * t
+    sigma[:3] = 0.0  # smooth disk: in contact, at the wall, off it
+    d[:3] = [0.1e-9, eps, 0.5e-9]
+    gw_coef = 1.25e22
+    pc, dpc = np.empty(t.size), np.empty(t.size)
+    kernels.fill_contact_pressures(d, sigma, eps, gw_coef, pc, dpc)
+    for i in range(t.size):
+        want = kernels.contact_pressure(d[i], sigma[i], eps, gw_coef)
+        for got, ref in zip((pc[i], dpc[i]), want, strict=True):
+            close = abs(got - ref) <= 1e-14 * abs(ref) + 1e-290
+            assert got == ref or close or (np.isnan(got) and np.isnan(ref)), (t[i], got, ref)
+
+
 def test_lj_zero_force_spacing_and_work():
     assert lj_pressure(EPS_LJ, DGAMMA, EPS_LJ) == 0.0
     assert lj_pressure(0.99 * EPS_LJ, DGAMMA, EPS_LJ) > 0.0 > lj_pressure(1.01 * EPS_LJ, DGAMMA, EPS_LJ)

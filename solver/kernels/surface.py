@@ -124,7 +124,7 @@ import numpy as np
 from numpy.polynomial import chebyshev, hermite_e, legendre
 
 from ..jit import njit
-from .elementary import exp_minus
+from .elementary import EXP_ARGUMENT_MAX, exp_minus
 
 #: Degree of the Chebyshev series on each unit interval of t.
 CHEB_DEGREE = 14
@@ -243,6 +243,59 @@ def gw_integrals(t: float) -> tuple[float, float]:
     if t >= T_ZERO:
         return 0.0, 0.0
     return t, t  # nan in, nan out
+
+
+#: Both tables in one, interval k on [T_ASYMPTOTIC + k, T_ASYMPTOTIC + k + 1): F_n below t = 0, F_n / phi above.
+_CHEB_ALL = np.ascontiguousarray(np.concatenate([_CHEB_NEGATIVE, _CHEB_POSITIVE]))
+_N_NEGATIVE = _CHEB_NEGATIVE.shape[0]
+
+
+@njit(inline=True)
+def gw_integrals_vectorizable(t: float) -> tuple[float, float]:
+    """:func:`gw_integrals` for t >= T_ASYMPTOTIC (not nan) without branches or libm calls, so that a loop over cells
+    vectorizes: the same intervals, abscissae and Clenshaw sums (the two tables as one, its coefficients gathered
+    per cell), phi by :func:`solver.kernels.elementary.exp_minus`, and selects instead of the branches."""
+    tt = min(t, T_ZERO)  # beyond T_ZERO the result is 0 (selected below); the index stays in the table
+    positive = tt >= 0.0
+    k_neg = min(int(tt - T_ASYMPTOTIC), _N_NEGATIVE - 1)
+    k_pos = min(int(tt), _CHEB_POSITIVE.shape[0] - 1)
+    x = 2.0 * (tt - k_pos) - 1.0 if positive else 2.0 * (tt - T_ASYMPTOTIC - k_neg) - 1.0
+    k = k_pos + _N_NEGATIVE if positive else k_neg
+    b1a = 0.0
+    b2a = 0.0
+    b1b = 0.0
+    b2b = 0.0
+    x2 = 2.0 * x
+    for j in range(_CHEB_ALL.shape[2] - 1, 0, -1):
+        b1a, b2a = x2 * b1a - b2a + _CHEB_ALL[k, 0, j], b1a
+        b1b, b2b = x2 * b1b - b2b + _CHEB_ALL[k, 1, j], b1b
+    f32 = x * b1a - b2a + _CHEB_ALL[k, 0, 0]
+    f12 = x * b1b - b2b + _CHEB_ALL[k, 1, 0]
+    y = 0.5 * tt * tt
+    phi = exp_minus(y) / _SQRT_2PI
+    f32 = f32 * phi if positive else f32
+    f12 = f12 * phi if positive else f12
+    zero = t >= T_ZERO or y > EXP_ARGUMENT_MAX  # exp_minus stops at exp(-708); libm's exp goes subnormal, then 0
+    return 0.0 if zero else f32, 0.0 if zero else f12
+
+
+@njit
+def fill_contact_pressures(
+    d: np.ndarray, sigma: np.ndarray, eps: float, gw_coef: float, pc: np.ndarray, dpc: np.ndarray
+) -> None:
+    """:func:`contact_pressure` at every cell into ``pc``, ``dpc``: one vectorized pass
+    (:func:`gw_integrals_vectorizable`), then cell by cell where it does not apply (a smooth disk, t below
+    T_ASYMPTOTIC, nan).  The values of :func:`contact_pressure`, to round-off."""
+    for i in range(d.size):
+        s = sigma[i] if sigma[i] > 0.0 else 1.0  # a smooth disk's cells are taken again below
+        t = (d[i] - eps) / s
+        f32, f12 = gw_integrals_vectorizable(t if t >= T_ASYMPTOTIC else T_ASYMPTOTIC)  # nan too: redone below
+        root = math.sqrt(s)
+        pc[i] = gw_coef * s * root * f32
+        dpc[i] = -1.5 * gw_coef * root * f12
+    for i in range(d.size):
+        if not (sigma[i] > 0.0 and (d[i] - eps) / sigma[i] >= T_ASYMPTOTIC):
+            pc[i], dpc[i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
 
 
 @njit
@@ -731,11 +784,16 @@ def generalized_forces(
     adhesion = 0.0
     in_reach = 0
     q0, q1, q2 = q[0], q[1], q[2]
-    for i in range(offset.size):
+    n = offset.size
+    seps, pcs, dpcs = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        seps[i] = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
+    fill_contact_pressures(seps, sigma, eps, gw_coef, pcs, dpcs)  # vectorized: the loop below has branches
+    for i in range(n):
         b0, b1, b2 = b[0, i], b[1, i], b[2, i]
-        d = offset[i] + b0 * q0 + b1 * q1 + b2 * q2
+        d = seps[i]
         s = sigma[i]
-        pc, dpc = contact_pressure(d, s, eps, gw_coef)
+        pc, dpc = pcs[i], dpcs[i]
         if mode == CACHE_OFF:
             pa, dpa = adhesion_by_law(d, s, eps, adh_coef, adhesion_law, summit_coef)
         else:
