@@ -49,6 +49,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="also the slider's modes on its air bearing: frequencies, damping ratios, shapes, and the damping "
         "the scene's time step adds to each (kind abs)",
     )
+    p.add_argument(
+        "--ladder",
+        nargs="?",
+        const="default",
+        metavar="GRIDS",
+        help="the flight on a ladder of grids instead (kind abs): NXxNY,NXxNY,... or, without a value, the "
+        "scene's grid with its intervals scaled by 2/3, 1, 4/3, 2 and 8/3; fits f0 + b h^p and Richardson's "
+        "estimate to the flying height, pitch, roll and smallest spacing (-o writes the ladder, --plot its figure)",
+    )
     p.set_defaults(func=cmd_fly)
 
     p = sub.add_parser("simulate", help="one run: steady flight + disturbance, contacts, classification")

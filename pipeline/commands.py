@@ -60,8 +60,35 @@ def simulate_scene(scene, output: Path | None = None, plot: Path | None = None, 
 def cmd_fly(args: argparse.Namespace) -> int:
     from .config import load_scene
 
-    fly_scene(load_scene(args.scene, args.overrides), args.output, args.plot, modes=args.modes)
+    scene = load_scene(args.scene, args.overrides)
+    if args.ladder is not None:
+        if args.modes:
+            raise ValueError("--ladder and --modes: give one of them (the modes are of one grid's flight)")
+        ladder_scene(scene, args.ladder, args.output, args.plot)
+        return 0
+    fly_scene(scene, args.output, args.plot, modes=args.modes)
     return 0
+
+
+def ladder_scene(scene, grids: str = "default", output: Path | None = None, plot: Path | None = None):
+    """The steady flight of ``scene`` on a ladder of grids (:mod:`pipeline.ladder`): print it, write its dataset
+    and figure; returns the dataset.  ``grids``: "NXxNY,..." or "default"."""
+    from .data.netcdf import write_netcdf
+    from .figures.common import save_figure
+    from .kinds import adapter_of, plot_dataset
+    from .ladder import default_grids, grid_ladder, ladder_report, parse_grids
+
+    if adapter_of(scene).name != "abs":
+        raise ValueError(f"--ladder: scenes of kind {adapter_of(scene).name!r} have no grid ladder (kind 'abs' has)")
+    ladder = default_grids(scene.numerics.nx, scene.numerics.ny) if grids == "default" else parse_grids(grids)
+    print(f"grid ladder of {scene.name}: {', '.join(f'{a} x {b}' for a, b in ladder)}")
+    ds = grid_ladder(scene, ladder)
+    print("\n".join(ladder_report(ds)))
+    if output:
+        print(f"wrote {write_netcdf(ds, output)}")
+    if plot:
+        print(f"wrote {save_figure(plot_dataset(ds), plot)}")
+    return ds
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:

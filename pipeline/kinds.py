@@ -226,6 +226,7 @@ def _adapters() -> dict[str, Adapter]:
             "regime_map": figures_abs.plot_regime_map,
             "statistics": figures_abs.plot_statistics,
             "bench": plot_scene2_bench,
+            "ladder": figures_abs.plot_ladder,
         },  # fmt: skip
         bench=bench_abs.run_bench,
         series_kept={name: ABS_SERIES[name] for name in ABS_SERIES_KEPT},

@@ -6,7 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
-from .commands import fly_scene, print_boundary, simulate_scene
+from .commands import fly_scene, ladder_scene, print_boundary, simulate_scene
 from .config import DEFAULT_SCENE, load_scene
 
 FIG17_STUDY = Path(__file__).resolve().parent.parent / "studies" / "fig17.toml"
@@ -105,8 +105,9 @@ SCENE2_STATISTICS = "statistics"
 
 
 def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
-    """Scene 2: steady flight with its modes, one default 1-ms run, the four Table-I studies and the pad-preload
-    regime map, and (unless --quick) the statistics study with its report, on one shared ledger."""
+    """Scene 2: steady flight with its modes and its grid ladder, one default 1-ms run, the four Table-I studies
+    and the pad-preload regime map, and (unless --quick) the statistics study with its report, on one shared
+    ledger."""
     from pipeline.figures.common import save_figure
     from pipeline.kinds import plot_dataset
     from pipeline.run.fanout import run_study
@@ -114,6 +115,8 @@ def _reproduce_scene2(args: argparse.Namespace, out: Path) -> None:
 
     print("\nscene 2: partial-contact femto slider", flush=True)
     fly_scene(load_scene(SCENE2), out / "chen_bogy2007_fly.nc", out / "chen_bogy2007_fly.png", modes=True)
+    print()
+    ladder_scene(load_scene(SCENE2), "default", out / "chen_bogy2007_ladder.nc", out / "chen_bogy2007_ladder.png")
     print()
     simulate_scene(load_scene(SCENE2), out / "chen_bogy2007_run.nc", out / "chen_bogy2007_run.png")
     if args.skip_studies:

@@ -30,7 +30,7 @@ def scene_attrs(scene: Any) -> dict[str, str]:
 
 
 #: What a file holds (``attrs["product"]``): a figure or a reader looks it up, it never guesses.
-PRODUCTS = ("fly", "run", "study", "bench")
+PRODUCTS = ("fly", "run", "study", "bench", "ladder")
 
 
 def product_attrs(title: str, scene: Any, product: str) -> dict[str, str]:

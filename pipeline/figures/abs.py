@@ -432,3 +432,39 @@ def plot_statistics(ds: xr.Dataset) -> Figure:
             ax.grid(alpha=0.3, which="both")
     fig.suptitle(f"{ds.attrs.get('title', '')} ({ds.sizes.get('realization', 1)} realisations per cell)", fontsize=11)
     return fig
+
+
+def plot_ladder(ds: xr.Dataset) -> Figure:
+    """A grid ladder (:mod:`pipeline.ladder`): each fitted quantity against the grid interval h = 1 / (nx - 1),
+    with the least-squares f0 + b h^p, its limit and Richardson's where there is one; the scene's grid marked."""
+    from pipeline.ladder import QUANTITIES
+
+    plt = pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(10.0, 7.0), constrained_layout=True)
+    h = ds["h"].values
+    hh = np.linspace(0.0, float(np.nanmax(h)) * 1.05, 200)
+    scene_nx = int(_face_scene(ds).numerics.nx) if _face_scene(ds) is not None else None
+    for ax, (name, (unit, scale, long_name)) in zip(axes.ravel(), QUANTITIES.items(), strict=True):
+        f = ds[name].values * scale
+        ax.plot(h, f, "o", color="C0", label="steady flight")
+        for nx, hx, fx in zip(ds["nx"].values, h, f, strict=True):
+            if np.isfinite(fx):
+                ax.annotate(f"{nx}", (hx, fx), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        if scene_nx in ds["nx"].values:
+            k = int(np.flatnonzero(ds["nx"].values == scene_nx)[0])
+            ax.plot(h[k], f[k], "s", mfc="none", ms=11, color="C3", label=f"scene grid ({scene_nx} nodes)")
+        f0, p = float(ds[f"{name}_fit_limit"]), float(ds[f"{name}_fit_order"])
+        if np.isfinite(f0):
+            ok = np.isfinite(f)
+            b = np.linalg.lstsq(h[ok, None] ** p, f[ok] - f0 * scale, rcond=None)[0][0]
+            ax.plot(hh, f0 * scale + b * hh**p, "-", color="C1", lw=1, label=f"fit: p = {p:.2f}")
+            ax.axhline(f0 * scale, color="C1", ls=":", lw=1, label=f"fitted limit {f0 * scale:.5g} {unit}")
+        if f"{name}_richardson_limit" in ds and np.isfinite(float(ds[f"{name}_richardson_limit"])):
+            r0, rp = float(ds[f"{name}_richardson_limit"]) * scale, float(ds[f"{name}_richardson_order"])
+            ax.plot([0.0], [r0], "D", color="C2", label=f"Richardson: {r0:.5g} {unit} (p = {rp:.2f})")
+        ax.set_xlabel("grid interval h = 1 / (nx - 1)")
+        ax.set_ylabel(f"{long_name} [{unit}]")
+        ax.set_xlim(left=0.0)
+        ax.legend(fontsize=7)
+    fig.suptitle(textwrap.fill(ds.attrs.get("title", "grid ladder"), 100), fontsize=10)
+    return fig
