@@ -204,18 +204,19 @@ _GH_NODES, _GH_WEIGHTS = hermite_e.hermegauss(10)
 _GH_WEIGHTS = _GH_WEIGHTS / _SQRT_2PI
 
 
-@njit
-def _clenshaw_pair(coef: np.ndarray, x: float) -> tuple[float, float]:
-    """Both Chebyshev series of ``coef`` (2, degree + 1) at x in [-1, 1]."""
+@njit(inline=True)
+def _clenshaw_pair(table: np.ndarray, row: int, x: float) -> tuple[float, float]:
+    """Both Chebyshev series of ``table[row]`` (2, degree + 1) at x in [-1, 1] (indexed, not sliced, so that a
+    loop over cells that inlines it vectorizes)."""
     b1a = 0.0
     b2a = 0.0
     b1b = 0.0
     b2b = 0.0
     x2 = 2.0 * x
-    for k in range(coef.shape[1] - 1, 0, -1):
-        b1a, b2a = x2 * b1a - b2a + coef[0, k], b1a
-        b1b, b2b = x2 * b1b - b2b + coef[1, k], b1b
-    return x * b1a - b2a + coef[0, 0], x * b1b - b2b + coef[1, 0]
+    for k in range(table.shape[2] - 1, 0, -1):
+        b1a, b2a = x2 * b1a - b2a + table[row, 0, k], b1a
+        b1b, b2b = x2 * b1b - b2b + table[row, 1, k], b1b
+    return x * b1a - b2a + table[row, 0, 0], x * b1b - b2b + table[row, 1, 0]
 
 
 @njit
@@ -233,11 +234,11 @@ def gw_integrals(t: float) -> tuple[float, float]:
     if t < 0.0:
         k = min(int(t - T_ASYMPTOTIC), _CHEB_NEGATIVE.shape[0] - 1)
         x = 2.0 * (t - T_ASYMPTOTIC - k) - 1.0
-        return _clenshaw_pair(_CHEB_NEGATIVE[k], x)
+        return _clenshaw_pair(_CHEB_NEGATIVE, k, x)
     if t < T_ZERO:
         k = int(t)
         x = 2.0 * (t - k) - 1.0
-        f32, f12 = _clenshaw_pair(_CHEB_POSITIVE[k], x)
+        f32, f12 = _clenshaw_pair(_CHEB_POSITIVE, k, x)
         phi = math.exp(-0.5 * t * t) / _SQRT_2PI
         return f32 * phi, f12 * phi
     if t >= T_ZERO:
@@ -261,16 +262,7 @@ def gw_integrals_vectorizable(t: float) -> tuple[float, float]:
     k_pos = min(int(tt), _CHEB_POSITIVE.shape[0] - 1)
     x = 2.0 * (tt - k_pos) - 1.0 if positive else 2.0 * (tt - T_ASYMPTOTIC - k_neg) - 1.0
     k = k_pos + _N_NEGATIVE if positive else k_neg
-    b1a = 0.0
-    b2a = 0.0
-    b1b = 0.0
-    b2b = 0.0
-    x2 = 2.0 * x
-    for j in range(_CHEB_ALL.shape[2] - 1, 0, -1):
-        b1a, b2a = x2 * b1a - b2a + _CHEB_ALL[k, 0, j], b1a
-        b1b, b2b = x2 * b1b - b2b + _CHEB_ALL[k, 1, j], b1b
-    f32 = x * b1a - b2a + _CHEB_ALL[k, 0, 0]
-    f12 = x * b1b - b2b + _CHEB_ALL[k, 1, 0]
+    f32, f12 = _clenshaw_pair(_CHEB_ALL, k, x)
     y = 0.5 * tt * tt
     phi = exp_minus(y) / _SQRT_2PI
     f32 = f32 * phi if positive else f32
@@ -609,6 +601,19 @@ def near_wall_expectations(
 
 
 @njit
+def _near_wall_at(
+    d: np.ndarray, sigma: np.ndarray, near: np.ndarray, eps: float, adh_coef: float, energy: bool, curvature: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`near_wall_expectations` at the cells ``near``: their separations, roughness and the (4, k) sums."""
+    d_near, s_near = np.empty(near.size), np.empty(near.size)
+    for k in range(near.size):
+        d_near[k], s_near[k] = d[near[k]], sigma[near[k]]
+    out = np.empty((4, near.size))
+    near_wall_expectations(d_near, s_near, eps, adh_coef, energy, curvature, out)
+    return d_near, s_near, out
+
+
+@njit
 def fill_flat_adhesion(
     offset: np.ndarray, sigma: np.ndarray, b: np.ndarray, q: np.ndarray, eps: float, adh_coef: float, cache: tuple
 ) -> None:
@@ -638,11 +643,7 @@ def fill_flat_adhesion(
                 cache_p[i], cache_dp[i], cache_d2p[i] = _flat_adhesion(d, s, eps, adh_coef, True)
     if n_near == 0:
         return
-    d_near, s_near = np.empty(n_near), np.empty(n_near)
-    for k in range(n_near):
-        d_near[k], s_near[k] = cache_d[near[k]], sigma[near[k]]
-    out = np.empty((4, n_near))
-    near_wall_expectations(d_near, s_near, eps, adh_coef, False, True, out)
+    d_near, s_near, out = _near_wall_at(cache_d, sigma, near[:n_near], eps, adh_coef, False, True)
     for k in range(n_near):
         i = near[k]
         d, s = d_near[k], s_near[k]
@@ -716,11 +717,7 @@ def fill_asperity_adhesion(
         cache_dp[i], cache_d2p[i] = -summit_coef * cache_dp[i], -summit_coef * cache_d2p[i]
     if n_near == 0:
         return
-    d_near, s_near = np.empty(n_near), np.empty(n_near)
-    for k in range(n_near):
-        d_near[k], s_near[k] = cache_d[near[k]], sigma[near[k]]
-    out = np.empty((4, n_near))
-    near_wall_expectations(d_near, s_near, eps, adh_coef, True, False, out)
+    d_near, s_near, out = _near_wall_at(cache_d, sigma, near[:n_near], eps, adh_coef, True, False)
     for k in range(n_near):
         i = near[k]
         tau = (d_near[k] - eps) / s_near[k]
