@@ -412,6 +412,10 @@ def plot_statistics(ds: xr.Dataset) -> Figure:
             diff = cell[f"{name}_paired_difference"].values * scale
             dhalf = cell[f"{name}_paired_difference_ci95"].values * scale
             row[2].errorbar(values, diff, yerr=dhalf, fmt="s", capsize=4, color="tab:red")
+        if not np.any(ds[f"{name}_ci95_nested"].values > 0.0):  # every realisation the same value: no spread
+            row[0].set_yscale("linear")
+            row[0].text(0.5, 0.5, "no spread: every realisation gives the same value", transform=row[0].transAxes,
+                        ha="center", va="center", fontsize=9)  # fmt: skip
         row[0].set_title(f"{name}: 95 % half-width h$_n$ of the first n (line: fit, dotted: slope -1/2)",
                          fontsize=9)  # fmt: skip
         row[0].set_xlabel("realisations n")
