@@ -76,6 +76,7 @@ CF_SAMPLE = (
     "pad_width.nc",
     "bench_scene2.nc",
     "statistics_grid.nc",
+    "chen_bogy2007_ladder.nc",
 )
 
 
