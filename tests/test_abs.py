@@ -36,10 +36,11 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from solver.abs.cuts import slanted_crossings
 from solver.abs.face import abs_grid, axis_edges, depth, inside_polygon, region_geometry, shape
 from solver.abs.film import AbsFilm
 from solver.abs.params import AbsScene
-from solver.abs.steady import fly_start
+from solver.abs.steady import exact_min_spacing, face_spacing, fly_start
 from solver.kernels import film as kernels_film
 from solver.kinds import scene_from_dict
 from solver.params import ParameterError
@@ -280,6 +281,39 @@ def test_fitted_grid_puts_every_region_edge_on_a_control_volume_face(grid_size):
         assert np.all((ratio > 0.4) & (ratio < 2.5)), (ratio.min(), ratio.max())
 
 
+def test_slanted_crossings_are_where_a_slanted_edge_meets_the_grid_lines():
+    """The strip splits of a slanted edge: y = y0 + (x - x0) dy/dx at every grid x strictly inside its x-range."""
+    triangle = np.array([[0.0, 0.0], [4.0, 1.0], [0.0, 1.0]])  # one slanted edge, one horizontal, one vertical
+    ys = slanted_crossings([triangle], 0, np.array([-1.0, 0.0, 1.0, 2.5, 4.0, 5.0]))
+    assert np.allclose(np.sort(ys), [0.25, 0.625], rtol=0, atol=1e-15)  # x = 1 and 2.5; the ends are vertices
+    xs = slanted_crossings([triangle], 1, np.array([0.5]))
+    assert np.allclose(xs, [2.0], rtol=0, atol=1e-15)
+    assert slanted_crossings([np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])], 0, np.array([0.5])).size == 0
+
+
+def shifted_corners_load(shift: float, q: np.ndarray) -> float:
+    """Steady film load [N] at attitude q with the trailing step's leading corners moved out by ``shift`` [m]."""
+    data = scene_data({"contact.delta_gamma": 0.0})
+    step = next(r for r in data["abs"]["regions"] if r["name"] == "trailing step")
+    step["polygon"] = [[x, y + np.sign(y) * shift if x == 0.70e-3 else y] for x, y in step["polygon"]]
+    return float(steady_film(scene_from_dict(data, source=str(SCENE_FILE)), q).forces()[0])
+
+
+def test_the_load_follows_a_slanted_corner_smoothly():
+    """Moving the trailing step's leading corners out in 1-um steps raises the load by nearly equal increments.
+
+    The corners' y is a control-volume face, so the slanted sides start where
+    the grid does.  Measured at 121 x 101 [uN per um]: 56.9, 55.9, 57.4, 57.7
+    (before, with the corners between faces: 52.9, 34.7, 31.0, 36.1; the
+    plateaus of the flying height under y refinement came from there).
+    """
+    q = np.array([40.75e-9, 134.5e-6, -15.6e-6])
+    loads = np.array([shifted_corners_load(k * 1e-6, q) for k in range(5)])
+    steps = np.diff(loads)
+    assert np.all(steps > 0)
+    assert np.max(np.abs(steps - steps.mean())) <= 0.1 * steps.mean(), steps * 1e6
+
+
 def exact_etched_volume() -> float:
     """Integral of the etch depth over the chen_bogy2007 face [m3], from the regions' areas (pad over step)."""
     base = 1.5e-6
@@ -325,6 +359,48 @@ def test_cut_cells_give_the_exact_etched_volume_and_pad_area():
         assert pad == pytest.approx(0.14e-3 * 0.60e-3 + 0.1e-3 * 0.1e-3, rel=1e-12)
     _, sampled = etched_volume_errors(grids, faces="sampled")
     assert min(sampled) > 1e-5, sampled  # the check can fail: sampling does not see the exact volume
+
+
+@pytest.mark.jitless
+def test_a_stalled_newton_search_restarts_pseudo_transient(coarse_attitude):
+    """On the coarse grid with the continuum law Newton drives one node of the trailing step towards P = 0
+    and creeps (positivity-limited steps); the film starts again with pseudo-transient continuation and converges.
+
+    The answer is a steady film: positive everywhere, residual below the tolerance, and a fixed point (a second
+    solve from it takes no step).
+    """
+    film = steady_film(chen_bogy(COARSE | {"models.slip": "continuum"}), coarse_attitude)
+    assert film.pseudo_transient_restarts == 1
+    R = film.residual()
+    scale = np.max(np.abs(film.scratch.Jcx) + np.abs(film.scratch.Jcy))
+    assert np.max(np.abs(R)) / scale <= 1e-12 and np.min(film.P) > 0
+    assert film.solve_steady(coarse_attitude, tol=1e-12) == 0
+
+
+def test_the_smallest_spacing_is_exact_on_the_face():
+    """exact_min_spacing: a crowned flat face at zero pitch touches at its centre; a pitched and rolled one at the
+    corner the plane makes lowest; on chen_bogy2007 never above a fine sampling of the pads, and within the slope
+    times the sampling step of it."""
+    q = np.array([20e-9, 0.0, 0.0])
+    crowned = flat_scene({"slider.crown": 10e-9, "slider.camber": 3e-9})
+    h, x, y = exact_min_spacing(crowned, q)
+    assert h == pytest.approx(20e-9, rel=1e-12) and x == pytest.approx(0.5 * LENGTH) and abs(y) <= 1e-15
+    q = np.array([20e-9, 100e-6, 10e-6])  # trailing edge (x = L) down, the y > 0 side down
+    h, x, y = exact_min_spacing(crowned, q)  # on the trailing edge, where camber eta^2 - roll y is least
+    y_edge = q[2] * WIDTH**2 / (8 * 3e-9)
+    assert (x, y) == pytest.approx((LENGTH, y_edge), rel=1e-12)
+    assert h == pytest.approx(float(face_spacing(crowned, q, np.array(LENGTH), np.array(y_edge), 0.0)), rel=1e-12)
+    h, x, y = exact_min_spacing(flat_scene(), q)  # a plane: the corner
+    assert (x, y) == pytest.approx((LENGTH, 0.5 * WIDTH), rel=1e-12)
+    scene = chen_bogy({"numerics.nx": 41, "numerics.ny": 31})
+    q = np.array([40.75e-9, 134.5e-6, -15.6e-6])
+    h, x, y = exact_min_spacing(scene, q)
+    step = 0.1e-6
+    X, Y = np.meshgrid(np.arange(0.70e-3, LENGTH + step / 2, step), np.arange(-0.1e-3, 0.1e-3, step), indexing="ij")
+    etch = depth(X, Y, scene)
+    sampled = np.where(etch <= 0.75e-6, face_spacing(scene, q, X, Y, etch), np.inf).min()
+    assert h <= sampled <= h + 2 * step * (abs(q[1]) + abs(q[2]))
+    assert (x, y) == pytest.approx((0.845e-3, -0.05e-3), abs=1e-12)  # the pad's rear corner on the rolled-down side
 
 
 # film: invariants ------------------------------------------------------------------------------------------

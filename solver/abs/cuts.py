@@ -83,6 +83,27 @@ def pieces(lo: float, hi: float, vertex_coords: np.ndarray) -> tuple[np.ndarray,
     return 0.5 * (cuts[1:] + cuts[:-1]), np.diff(cuts) / (hi - lo)
 
 
+def slanted_crossings(polygons: list[np.ndarray], axis: int, coords: np.ndarray) -> np.ndarray:
+    """Across-coordinates where the polygons' slanted edges cross the lines {``axis`` coordinate = coords}.
+
+    Splitting a strip there as well keeps every slanted edge inside one link
+    and one control volume per piece, so a piece's mid-line sees each edge
+    in the link it really crosses: without it, the mid-line puts all of a
+    strip's edge in the one link it crosses at mid-height (a staircase that
+    jumps from link to link as the grid moves), whatever the slope.
+    """
+    out = []
+    for poly in polygons:
+        a, b = poly, np.roll(poly, -1, axis=0)
+        v, u = axis, 1 - axis
+        slanted = (a[:, v] != b[:, v]) & (a[:, u] != b[:, u])
+        for pa, pb in zip(a[slanted], b[slanted], strict=True):
+            lo, hi = min(pa[v], pb[v]), max(pa[v], pb[v])
+            g = coords[(coords > lo) & (coords < hi)]
+            out.append(pa[u] + (g - pa[v]) * (pb[u] - pa[u]) / (pb[v] - pa[v]))
+    return np.concatenate(out) if out else np.zeros(0)
+
+
 def clip(line: Line, a: float, b: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The segments of the step function on [a, b]: lengths, mid-points and depths."""
     k0 = max(int(np.searchsorted(line.edges, a, side="right")) - 1, 0)
@@ -244,8 +265,11 @@ def rasterise(polygons: list[np.ndarray], depths: list[float], base: float, x: n
     yr = np.concatenate([0.5 * (y[1:] + y[:-1]), [y[-1]]])
     vx = np.concatenate([p[:, 0] for p in polygons]) if polygons else np.zeros(0)
     vy = np.concatenate([p[:, 1] for p in polygons]) if polygons else np.zeros(0)
-    rows = _strip_lines(polygons, depths, base, 0, np.append(yl, yr[-1]), x, vy)
-    cols = _strip_lines(polygons, depths, base, 1, np.append(xl, xr[-1]), y, vx)
+    gx, gy = np.union1d(x, xl), np.union1d(y, yl)  # nodes and control-volume faces
+    rows = _strip_lines(polygons, depths, base, 0, np.append(yl, yr[-1]), x,
+                        np.concatenate([vy, slanted_crossings(polygons, 0, gx)]))  # fmt: skip
+    cols = _strip_lines(polygons, depths, base, 1, np.append(xl, xr[-1]), y,
+                        np.concatenate([vx, slanted_crossings(polygons, 1, gy)]))  # fmt: skip
     link_x, cuts_x = _links(rows, x, 0)
     link_y, cuts_y = _links(cols, y, 1)
     mean, patch_d, patch_f, patch_x, patch_y = _volumes(rows, xl, xr, yl, yr)

@@ -215,8 +215,13 @@ def axis_edges(scene: AbsScene, axis: int) -> np.ndarray:
     for region in scene.abs.regions:
         v = region_geometry(region, scene)
         w = np.roll(v, -1, axis=0)
-        straight = np.abs(v[:, axis] - w[:, axis]) <= 1e-12 * scene.slider.length
+        tol = 1e-12 * scene.slider.length
+        straight = np.abs(v[:, axis] - w[:, axis]) <= tol
         out.extend(v[straight, axis])
+        # the ends of a slanted edge: a corner on a control-volume corner starts the edge where the grid does
+        slanted = (np.abs(v[:, 0] - w[:, 0]) > tol) & (np.abs(v[:, 1] - w[:, 1]) > tol)
+        out.extend(v[slanted, axis])
+        out.extend(w[slanted, axis])
     return np.unique(np.array(out))
 
 

@@ -37,6 +37,13 @@ CHORD_CONTRACTION = 0.3
 #: Column ordering of the steady Jacobian's sparse LU (SuperLU): minimum degree on A^T + A, the 5-point
 #: Jacobian's pattern being symmetric (about half of COLAMD's fill on the default face).
 STEADY_ORDERING = "MMD_AT_PLUS_A"
+#: Newton's step counts as stalled when the positivity limit cuts it below STALL_STEP this many times in a row;
+#: :meth:`AbsFilm.solve_steady` then starts again with pseudo-transient continuation, at most PTC_MAX_ITER
+#: iterations, until its pseudo-time factor reaches PTC_TAU_MAX (plain Newton).
+STALL_STEP = 0.05
+STALL_STEP_COUNT = 3
+PTC_MAX_ITER = 200
+PTC_TAU_MAX = 1e12
 
 #: Reference spacing of the scaled equation [m].
 H_REF = 10.0e-9
@@ -114,6 +121,7 @@ class AbsFilm:
         self.newton_iterations = 0
         self.factorizations = 0  # sparse LUs of the steady Jacobian (solve_steady reuses one while it contracts)
         self._steady_lu = None
+        self.pseudo_transient_restarts = 0  # solve_steady's restarts once Newton's steps stalled
 
     # spacing ------------------------------------------------------------------------------------------
 
@@ -233,18 +241,34 @@ class AbsFilm:
         that does not is taken back, and Newton's method goes on from there.
         Converged when the scaled residual max |R| / (sum of |flux terms|) is
         below tol, with or without the chord steps.
+
+        When Newton's steps are cut short by the positivity limit
+        STALL_STEP_COUNT times in a row (from a cold start some node's
+        pressure can be driven towards zero and creep there: a coarse grid of
+        the micro-pad face with the continuum law does), the search starts
+        again from the warm start with pseudo-transient continuation: the
+        Jacobian's diagonal is raised by |J_ii| / tau, with tau growing as the
+        residual falls (switched evolution relaxation), so the first steps
+        are small relaxation steps and the last are Newton's.
         """
         self.fill_faces(q)
         nx, ny = self.shape
         history: list[float] = []
         P = self.P[0, 1:-1, 1:-1]
+        P_start = P.copy()
         lu = self._steady_lu if chord else None
         on_chord, P_before = lu is not None, None
-        for it in range(1, max_iter + 1):
+        tau, short_steps, budget = None, 0, max_iter  # pseudo-time factor once Newton stalls
+        it = 0
+        while it < budget:
+            it += 1
             R = self.residual()
             scale = np.max(np.abs(self.scratch.Jcx) + np.abs(self.scratch.Jcy)) + 1e-300
             err = np.max(np.abs(R)) / scale
-            if on_chord and history and err > CHORD_CONTRACTION * history[-1]:
+            if tau is not None and history:
+                tau = min(tau * max(history[-1] / err, 0.5), PTC_TAU_MAX)
+                history.append(err)
+            elif on_chord and history and err > CHORD_CONTRACTION * history[-1]:
                 P[:] = P_before  # the old Jacobian no longer contracts: take its step back, Newton from here
                 R = self.residual()
                 err, on_chord = history[-1], False
@@ -256,23 +280,32 @@ class AbsFilm:
                 self.newton_iterations += it - 1
                 return it - 1
             if not on_chord:
-                lu = spla.splu(self.sparse_jacobian(), permc_spec=STEADY_ORDERING)
+                J = self.sparse_jacobian()
+                if tau is not None:  # pseudo-transient: the LU is not the steady Jacobian's, so it is not kept
+                    J = (J + sp.diags(np.abs(J.diagonal()) / tau)).tocsc()
+                lu = spla.splu(J, permc_spec=STEADY_ORDERING)
                 self.factorizations += 1
-                self._steady_lu = lu if chord else None
+                self._steady_lu = lu if chord and tau is None else None
             delta = lu.solve(-R[0, 1:-1, 1:-1].ravel()).reshape(nx - 2, ny - 2)
             self.reynolds_solves += 1
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(delta < 0, -0.8 * P / delta, np.inf)
             step = min(1.0, float(ratio.min()))
+            short_steps = short_steps + 1 if step < STALL_STEP and tau is None else 0
+            if short_steps >= STALL_STEP_COUNT:  # Newton creeps: start again, pseudo-transient
+                P[:] = P_start
+                self.pseudo_transient_restarts += 1
+                tau, short_steps, on_chord, history = 1.0, 0, False, []
+                budget = it + PTC_MAX_ITER
+                continue
             P_before = P.copy()
             P += step * delta
             if not np.all(np.isfinite(P)):
                 self._steady_lu = None
                 raise SteadyFilmError(f"steady film diverged at q = {q} (non-finite pressure)")
         self._steady_lu = None
-        raise SteadyFilmError(
-            f"steady film did not converge in {max_iter} Newton iterations at q = {q} (scaled residual {err:.2e})"
-        )
+        how = "Newton iterations" if tau is None else "iterations, the last pseudo-transient"
+        raise SteadyFilmError(f"steady film did not converge in {it} {how} at q = {q} (scaled residual {err:.2e})")
 
     def keep_steady_lu(self, lu) -> None:
         """Hand :meth:`solve_steady` an LU of the steady Jacobian (``scipy.sparse.linalg.splu``) to start from."""

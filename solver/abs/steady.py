@@ -96,6 +96,62 @@ START_PITCH = 150e-6
 START_ELEMENT_HEIGHT = 10e-9
 
 
+def face_spacing(scene: AbsScene, q: np.ndarray, x: np.ndarray, y: np.ndarray, etch: float) -> np.ndarray:
+    """Spacing above the disk's mean plane [m] at points (x, y) of a region etched ``etch`` deep, at attitude q."""
+    from solver.abs.face import shape
+
+    s = scene.slider
+    return etch + shape(x, y, scene) + q[0] - (x - s.pivot_x) * q[1] - (y - s.pivot_y) * q[2]
+
+
+def exact_min_spacing(scene: AbsScene, q: np.ndarray) -> tuple[float, float, float]:
+    """Smallest spacing over the pads (regions etched at most half the cavity) and where it is: (h, x, y) [m].
+
+    The spacing is a quadratic in x and y on each region (plane, crown, camber, twist), so its minimum over a
+    region's polygon lies at a vertex, at the minimum of the quadratic along an edge, or at its interior
+    stationary point.  A candidate that a later region of another depth paints over is dropped (tested a hair
+    inside its own region, so that shared edges count for both).  Exact, where the smallest spacing over the
+    grid's nodes misses it by the slope times half a cell (first order in the grid spacing).
+    """
+    from solver.abs.face import inside_polygon, region_geometry
+
+    s, regions = scene.slider, scene.abs.regions
+    L, W = s.length, s.width
+    best = (np.inf, np.nan, np.nan)
+    for k, region in enumerate(regions):
+        if scene.abs.base_depth > 0 and region.depth > 0.5 * scene.abs.base_depth:
+            continue
+        v = region_geometry(region, scene)
+        w = np.roll(v, -1, axis=0)
+        cand = [v]
+        # along each edge h(t) = a t^2 + b t + c, from three points
+        h0, hm, h1 = (face_spacing(scene, q, *(v + t * (w - v)).T, region.depth) for t in (0.0, 0.5, 1.0))
+        a, b = 2.0 * (h0 + h1 - 2.0 * hm), 4.0 * hm - 3.0 * h0 - h1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(a > 0, -b / (2.0 * a), -1.0)
+        on = (t > 0) & (t < 1)
+        cand.append(v[on] + t[on, None] * (w - v)[on])
+        # interior: in xi = 2 (x - L/2) / L, eta = 2 y / W the gradient of shape - pitch x - roll y vanishes where
+        # [[4 crown / L, 2 twist / L], [2 twist / W, 4 camber / W]] (xi, eta) = (pitch, roll)
+        if s.crown > 0 and 4.0 * s.crown * s.camber > s.twist**2:
+            xi, eta = np.linalg.solve([[4 * s.crown / L, 2 * s.twist / L], [2 * s.twist / W, 4 * s.camber / W]],
+                                      [q[1], q[2]])  # fmt: skip
+            c = np.array([[0.5 * L * (1.0 + xi), 0.5 * W * eta]])
+            if inside_polygon(c[:, 0], c[:, 1], v)[0]:
+                cand.append(c)
+        pts = np.concatenate(cand)
+        probe = pts + 1e-9 * L * np.sign(v.mean(axis=0) - pts)  # a hair inside this region
+        covered = np.zeros(len(pts), dtype=bool)
+        for later in regions[k + 1 :]:
+            if later.depth != region.depth:
+                covered |= inside_polygon(probe[:, 0], probe[:, 1], region_geometry(later, scene))
+        h = np.where(covered, np.inf, face_spacing(scene, q, pts[:, 0], pts[:, 1], region.depth))
+        n = int(np.argmin(h))
+        if h[n] < best[0]:
+            best = (float(h[n]), float(pts[n, 0]), float(pts[n, 1]))
+    return best
+
+
 def _attitude_text(q: np.ndarray) -> str:
     return f"z = {q[0] * 1e9:.3f} nm, pitch = {q[1] * 1e6:.2f} urad, roll = {q[2] * 1e6:.3f} urad"
 
@@ -193,15 +249,14 @@ def _newton_flight(scene: AbsScene, film: AbsFilm, q0: np.ndarray | None = None)
             f"near {_attitude_text(q)})"
         )
     h = film.spacing(q)
-    hp = np.where(pad, h, np.inf)
-    k = np.unravel_index(np.argmin(hp), h.shape)
     touchdown, lowering = surface.touchdown_adhesion(h, track_sigma)
+    h_min, x_min, y_min = exact_min_spacing(scene, q)
     return AbsSteady(
         q=q,
         element_spacing=element_spacing(scene, q),
-        min_spacing=float(hp[k]),
-        min_spacing_x=float(grid.x[k[0]]),
-        min_spacing_y=float(grid.y[k[1]]),
+        min_spacing=h_min,
+        min_spacing_x=x_min,
+        min_spacing_y=y_min,
         air_force=fa,
         surface=sf,
         pressure=film.P[0].copy() * film.p0,
