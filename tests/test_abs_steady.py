@@ -42,6 +42,22 @@ def test_flight_found_where_newton_stalls(overrides):
     assert steady.iterations <= 60  # measured 34, 29 and 9, the continuation's corrector iterations included
 
 
+def test_a_film_tolerance_floor_is_tightened_not_reported_as_a_stall(monkeypatch):
+    """121 x 301 without skew or adhesion: at the film tolerance 1e-9 the force balance floors at 1.5e-5 preloads
+    (measured), above steady_tol; the search tightens the film's tolerance and converges to the flight that a
+    tolerance of 1e-12 from the start finds, with zero roll (the face and the flow are symmetric in y)."""
+    import solver.abs.steady as steady_module
+
+    scene = chen_bogy({"numerics.nx": 121, "numerics.ny": 301, "disk.skew": 0.0, "contact.delta_gamma": 0.0})
+    flight = fly_abs(scene)
+    assert flight.force_residual < scene.numerics.steady_tol
+    assert abs(flight.q[2]) <= 1e-12
+    monkeypatch.setattr(steady_module, "FILM_TOLERANCE", 1e-12)
+    tight = fly_abs(scene)
+    assert flight.element_spacing == pytest.approx(tight.element_spacing, abs=1e-13)  # steady_tol moves z ~1e-14 m
+    assert flight.q[1] == pytest.approx(tight.q[1], rel=1e-6)
+
+
 def test_flying_height_and_pitch_fall_monotonically_under_refinement():
     """On the fitted faces the flight converges from above: flying height and pitch fall with every refinement.
 
