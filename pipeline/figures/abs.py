@@ -173,12 +173,19 @@ def _draw_face(ax, ds, scene, x, y, window=None, labelled=()):
     """Etch depth (log scale) with each region's outline, and its name and depth where it shows on the face (the
     node it paints nearest its painted area's centroid); ``window`` ((x0, x1), (y0, y1)) [mm] zooms, and labels the
     regions ``labelled`` (indices) with their sizes (the whole face leaves them, and any below 1 % of it, out)."""
+    from matplotlib.cm import ScalarMappable
     from matplotlib.colors import LogNorm
+    from matplotlib.patches import Polygon, Rectangle
 
     from solver.abs.face import inside_polygon, region_geometry
 
-    depth = np.maximum(ds["depth"].values * 1e9, 1.0)  # pad tops (0) drawn at 1 nm
-    m = ax.pcolormesh(x, y, depth.T, shading="nearest", cmap="Greys", norm=LogNorm(1.0, max(2.0, depth.max())))
+    # The regions' exact polygons, painted in the scene's order (a later region covers an earlier one, as in the
+    # solver's depth), over the base depth: slanted sides are drawn as they are, not as the nodes sample them.
+    floor = lambda d: max(d * 1e9, 1.0)  # noqa: E731  pad tops (0) drawn at 1 nm
+    depths = [scene.abs.base_depth] + [r.depth for r in scene.abs.regions]
+    m = ScalarMappable(norm=LogNorm(1.0, max(2.0, max(floor(d) for d in depths))), cmap="Greys")
+    length, width = scene.slider.length * 1e3, scene.slider.width * 1e3
+    ax.add_patch(Rectangle((0.0, -0.5 * width), length, width, color=m.to_rgba(floor(scene.abs.base_depth)), lw=0))
     X, Y = np.meshgrid(x, y, indexing="ij")
     owner = np.full(X.shape, -1)
     shapes = [region_geometry(r, scene) * 1e3 for r in scene.abs.regions]
@@ -186,6 +193,8 @@ def _draw_face(ax, ds, scene, x, y, window=None, labelled=()):
         owner[inside_polygon(X, Y, v)] = k
     area = np.outer(np.gradient(x), np.gradient(y))
     stacked = 0
+    for region, v in zip(scene.abs.regions, shapes, strict=True):
+        ax.add_patch(Polygon(v, closed=True, facecolor=m.to_rgba(floor(region.depth)), edgecolor="none"))
     for k, (region, v) in enumerate(zip(scene.abs.regions, shapes, strict=True)):
         closed = np.vstack([v, v[:1]])
         ax.plot(closed[:, 0], closed[:, 1], color="tab:blue", lw=0.8)
@@ -205,7 +214,10 @@ def _draw_face(ax, ds, scene, x, y, window=None, labelled=()):
             "bbox": {"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none"},
         }
         if window is None:
-            ax.text(*anchor, label.replace(", ", "\n"), ha="center", va="center", **style)
+            (x0, y0), (x1, y1) = v.min(axis=0), v.max(axis=0)
+            tall = (y1 - y0) > 4.0 * (x1 - x0)  # a narrow strip across the face: its label runs along it
+            text = label if tall else label.replace(", ", "\n")
+            ax.text(*anchor, text, ha="center", va="center", rotation=90 if tall else 0, **style)
             continue
         (x0, y0), (x1, y1) = v.min(axis=0), v.max(axis=0)
         label += f", {(x1 - x0) * 1e3:.0f} x {(y1 - y0) * 1e3:.0f} um"
@@ -217,6 +229,9 @@ def _draw_face(ax, ds, scene, x, y, window=None, labelled=()):
     if window is not None:
         ax.set_xlim(*window[0])
         ax.set_ylim(*window[1])
+    else:
+        ax.set_xlim(0.0, length)
+        ax.set_ylim(-0.5 * width, 0.5 * width)
     return m
 
 
@@ -237,7 +252,7 @@ def plot_fly(ds: xr.Dataset) -> Figure:
     if scene is None:
         fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
         fig.colorbar(
-            ax.pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm), ax=ax, label="p / p_ambient"
+            ax.pcolormesh(x, y, p.T, shading="gouraud", cmap="RdBu_r", norm=norm), ax=ax, label="p / p_ambient"
         )
         ax.set_title(title, fontsize=10)
         axes = [ax]
@@ -252,7 +267,7 @@ def plot_fly(ds: xr.Dataset) -> Figure:
         m = _draw_face(axes[0], ds, scene, x, y, labelled=near)
         fig.colorbar(m, ax=axes[0], label="etch depth [nm] (pad tops drawn at 1)")
         axes[0].set_title("(a) the face: regions and etch depths", fontsize=10)
-        m = axes[2].pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
+        m = axes[2].pcolormesh(x, y, p.T, shading="gouraud", cmap="RdBu_r", norm=norm)
         fig.colorbar(m, ax=axes[2], label="p / p_ambient")
         axes[2].set_title("(c) steady pressure", fontsize=10)
         # the zoom: the trailing pad and the regions behind mid-length beside or ahead of it (up to 0.15 mm)
@@ -261,7 +276,7 @@ def plot_fly(ds: xr.Dataset) -> Figure:
         window = ((lo_x - 0.01, x.max()), (lo_y - 0.02, hi_y + 0.02))
         _draw_face(axes[1], ds, scene, x, y, window, near)
         axes[1].set_title("(b) the trailing end", fontsize=10)
-        axes[3].pcolormesh(x, y, p.T, shading="nearest", cmap="RdBu_r", norm=norm)
+        axes[3].pcolormesh(x, y, p.T, shading="gouraud", cmap="RdBu_r", norm=norm)
         for v in shapes:
             closed = np.vstack([v, v[:1]])
             axes[3].plot(closed[:, 0], closed[:, 1], color="k", lw=0.5)
