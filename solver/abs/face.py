@@ -146,8 +146,11 @@ def refined_axis(
     """n nodes on [lo, hi], ``refine`` times denser over ``window`` (smooth tanh transitions).
 
     With ``edges``, every edge is made a control-volume face: its two neighbouring nodes sit half the
-    local spacing s either side of it, and the nodes between consecutive edges follow the density.  An
-    edge closer than s to an end, or 1.5 s to another edge, stays between nodes (the cut links handle it).
+    local spacing s either side of it, and the nodes between consecutive edges follow the density.  Two
+    edges closer than 1.5 s (a strip narrower than a cell and a half, d apart) get a node at the strip's
+    middle and one d / 2 outside each edge, so that both are faces and the strip is one control volume
+    (at least d / 2 from an end); when the strip is under s / 4, or a third edge is that close, they stay
+    between nodes, as does a lone edge closer than s to an end (the cut links handle them).
     """
     fine, density = _density(lo, hi, window, refine)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * np.diff(fine))])
@@ -155,20 +158,31 @@ def refined_axis(
     spacing = lambda e: step / np.interp(e, fine, density)  # noqa: E731
     e = np.unique(np.asarray(edges if edges is not None else [], dtype=float))
     s = spacing(e)
-    apart = np.ones(e.size, dtype=bool)  # both edges of a pair closer than 1.5 s stay cut
     close = np.diff(e) <= 1.5 * np.maximum(s[1:], s[:-1])
-    apart[1:] &= ~close
-    apart[:-1] &= ~close
-    kept = list(e[apart & (e - s > lo) & (e + s < hi)])
-    if not kept:
+    # each node block: the nodes around one edge (two) or around a strip between two close edges (three)
+    blocks: list[tuple[float, ...]] = []
+    k = 0
+    while k < e.size:
+        before = k > 0 and close[k - 1]
+        if k + 1 < e.size and close[k]:  # a close pair, unless it is part of a chain of three or more
+            d = e[k + 1] - e[k]
+            chain = before or (k + 2 < e.size and close[k + 1])
+            room = e[k] - d >= lo - 1e-9 * (hi - lo) and e[k + 1] + d <= hi + 1e-9 * (hi - lo)  # d / 2 to an end
+            if not chain and d >= 0.25 * max(s[k], s[k + 1]) and room:
+                blocks.append((e[k] - 0.5 * d, 0.5 * (e[k] + e[k + 1]), e[k + 1] + 0.5 * d))
+            k += 2 if not chain else 1
+            continue
+        if not before and e[k] - s[k] > lo and e[k] + s[k] < hi:
+            blocks.append((e[k] - 0.5 * s[k], e[k] + 0.5 * s[k]))
+        k += 1
+    if not blocks:
         nodes = np.interp(np.linspace(0.0, cdf[-1], n), cdf, fine)
         nodes[0], nodes[-1] = lo, hi
         return nodes
-    gaps = [(e - 0.5 * spacing(e), e + 0.5 * spacing(e)) for e in kept]
-    starts = [lo] + [g[1] for g in gaps]
-    ends = [g[0] for g in gaps] + [hi]
+    starts = [lo] + [b[-1] for b in blocks]
+    ends = [b[0] for b in blocks] + [hi]
     mass = np.array([np.interp(b, fine, cdf) - np.interp(a, fine, cdf) for a, b in zip(starts, ends, strict=True)])
-    free = n - 1 - len(gaps)  # intervals left for the segments between the edge gaps
+    free = n - 1 - sum(len(b) - 1 for b in blocks)  # intervals left for the segments between the blocks
     share = mass / mass.sum() * free
     counts = np.maximum(np.floor(share).astype(int), 1)
     while counts.sum() < free:  # largest remainders first
@@ -176,11 +190,13 @@ def refined_axis(
     while counts.sum() > free:
         counts[np.argmax(np.where(counts > 1, counts - share, -np.inf))] -= 1
     parts = []
-    for a, b, m in zip(starts, ends, counts, strict=True):
+    for k, (a, b, m) in enumerate(zip(starts, ends, counts, strict=True)):
         c = np.linspace(np.interp(a, fine, cdf), np.interp(b, fine, cdf), m + 1)
         seg = np.interp(c, cdf, fine)
         seg[0], seg[-1] = a, b
         parts.append(seg)
+        if k < len(blocks):
+            parts.append(np.array(blocks[k][1:-1]))  # a strip's middle node
     nodes = np.concatenate(parts)
     nodes[0], nodes[-1] = lo, hi
     return nodes
