@@ -37,7 +37,16 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from solver.abs.cuts import slanted_crossings
-from solver.abs.face import abs_grid, axis_edges, depth, inside_polygon, refined_axis, region_geometry, shape
+from solver.abs.face import (
+    abs_grid,
+    axis_edges,
+    depth,
+    grid_axes,
+    inside_polygon,
+    refined_axis,
+    region_geometry,
+    shape,
+)
 from solver.abs.film import AbsFilm
 from solver.abs.params import AbsScene
 from solver.abs.steady import exact_min_spacing, face_spacing, fly_start
@@ -310,6 +319,16 @@ def test_a_narrow_strip_between_two_close_edges_is_one_control_volume():
         nodes = refined_axis(0.0, 1.0, n, None, 1.0, np.array(edges))
         assert nodes.size == n and np.all(np.diff(nodes) > 0)
         assert all(np.min(np.abs(faces(nodes) - e)) > 1e-6 for e in edges), edges
+    # both designs' faces on every grid from the smoke tests' to the ladder's: increasing nodes, no cell under a
+    # tenth of the plain spacing (a strip's outer node once landed beyond the next edge's on 61 x 41, refine 3)
+    for name in ("chen_bogy2007.toml", "chen_bogy2007_mtp.toml"):
+        data = tomllib.loads((SCENE_FILE.parent / name).read_text())
+        for refine in (3.0, 4.0):
+            for nx in range(61, 330, 4):
+                data["numerics"].update(nx=nx, ny=(nx * 5) // 6 | 1, refine=refine)
+                x, y = grid_axes(scene_from_dict(data))
+                for nodes, span in ((x, LENGTH), (y, WIDTH)):
+                    assert np.all(np.diff(nodes) > 0.1 * span / (nodes.size - 1) / refine), (name, nx, refine)
 
 
 def test_the_micro_pad_face_load_follows_the_grid_smoothly():

@@ -175,6 +175,16 @@ def refined_axis(
         if not before and e[k] - s[k] > lo and e[k] + s[k] < hi:
             blocks.append((e[k] - 0.5 * s[k], e[k] + 0.5 * s[k]))
         k += 1
+    # A strip's outer nodes reach d / 2 beyond its edges: where that comes within a quarter cell of the next
+    # block (a third edge just beyond the strip's reach of "close"), the strip stays cut, as before.
+    k = 1
+    while k < len(blocks):
+        a, b = blocks[k - 1], blocks[k]
+        if b[0] - a[-1] < 0.25 * min(a[-1] - a[-2], b[1] - b[0]):
+            del blocks[k if len(b) == 3 else k - 1]
+            k = max(k - 1, 1)
+            continue
+        k += 1
     if not blocks:
         nodes = np.interp(np.linspace(0.0, cdf[-1], n), cdf, fine)
         nodes[0], nodes[-1] = lo, hi
@@ -283,15 +293,8 @@ class AbsGrid:
         return 0.5 * (self.y[1:] + self.y[:-1])
 
 
-def abs_grid(scene: AbsScene) -> AbsGrid:
-    """Grid and rasterised surface of a scene; a grid too coarse for a pad is an error naming it.
-
-    ``numerics.faces = "fitted"`` (default) places the nodes so that every region edge along a grid
-    line is a control-volume face, and measures the rest exactly (:mod:`solver.abs.cuts`); ``"cut"``
-    keeps the plain grid and measures every edge as cut links and patches; ``"sampled"`` samples the
-    depth at node and face centres (every step up to half a cell off: the scheme before cut cells).
-    Both others are kept for comparison (README, the grid ladder).
-    """
+def grid_axes(scene: AbsScene) -> tuple[np.ndarray, np.ndarray]:
+    """The grid's nodes along x (nx,) and y (ny,) [m]: refined over the window, fitted to the edges ("fitted")."""
     s, num = scene.slider, scene.numerics
     window = _window_bounds(scene)
     margin_x = 0.5 * (window[0][1] - window[0][0]) if window else 0.0
@@ -301,6 +304,20 @@ def abs_grid(scene: AbsScene) -> AbsGrid:
     fitted = num.faces == "fitted"
     x = refined_axis(0.0, s.length, num.nx, wx, num.refine, axis_edges(scene, 0) if fitted else None)
     y = centred_axis(0.5 * s.width, num.ny, wy, num.refine, axis_edges(scene, 1) if fitted else None)
+    return x, y
+
+
+def abs_grid(scene: AbsScene) -> AbsGrid:
+    """Grid and rasterised surface of a scene; a grid too coarse for a pad is an error naming it.
+
+    ``numerics.faces = "fitted"`` (default) places the nodes so that every region edge along a grid
+    line is a control-volume face, and measures the rest exactly (:mod:`solver.abs.cuts`); ``"cut"``
+    keeps the plain grid and measures every edge as cut links and patches; ``"sampled"`` samples the
+    depth at node and face centres (every step up to half a cell off: the scheme before cut cells).
+    Both others are kept for comparison (README, the grid ladder).
+    """
+    num = scene.numerics
+    x, y = grid_axes(scene)
     _check_resolution(scene, x, y)
     area = control_volume_widths(x)[:, None] * control_volume_widths(y)[None, :]
     xf, yf = 0.5 * (x[1:] + x[:-1]), 0.5 * (y[1:] + y[:-1])
