@@ -9,7 +9,7 @@ import pytest
 
 from solver.abs.film import AbsFilm
 from solver.abs.integrate import simulate_abs
-from solver.abs.modes import air_bearing_modes, numerical_damping
+from solver.abs.modes import air_bearing_modes, numerical_damping, step_frequency_ratio
 from solver.abs.steady import fly_start
 from tests.conftest import chen_bogy
 
@@ -98,6 +98,30 @@ def test_modes_are_damped_and_in_the_band(free_response):
     assert np.allclose(np.max(modes.shape, axis=1), 1.0)
 
 
+def test_the_step_runs_the_second_pitch_mode_at_its_step_frequency(free_response):
+    """The free response's spectral peak is the second pitch mode at the step's frequency, not at the mode's own.
+
+    On this coarse grid the mode is at 4.78 MHz, omega dt = 0.38 at 0.0125 us, and the trapezoidal rule runs it
+    1.15 % slow (step_frequency_ratio 0.9885: 4.727 MHz).  The peak of z's spectrum above 1 MHz (Hann window,
+    zero-padded) must lie within a tenth of that shift of the step's frequency (it lies 1.2 kHz from it, against
+    the shift's 55 kHz).
+    """
+    scene, modes, result = free_response
+    keep = result.t >= 10e-6
+    t, z = result.t[keep], result.q[keep, 0]
+    top = int(np.argmax(modes.element))
+    f_mode = modes.frequency[top]
+    dt = scene.numerics.dt
+    f_step = f_mode * step_frequency_ratio(2.0 * math.pi * f_mode * dt, scene.numerics.rho_infinity)
+    assert 0.985 < f_step / f_mode < 0.995
+    n = 1 << 20
+    amplitude = np.abs(np.fft.rfft((z - z.mean()) * np.hanning(z.size), n))
+    f = np.fft.rfftfreq(n, t[1] - t[0])
+    high = f > 1e6
+    peak = f[high][np.argmax(amplitude[high])]
+    assert abs(peak - f_step) < 0.1 * (f_mode - f_step), (peak, f_step, f_mode)
+
+
 @pytest.mark.jitless
 def test_numerical_damping_of_the_generalized_alpha_step():
     """zeta_num from the amplification matrix: 0 for the trapezoidal rule, the step's own decay otherwise.
@@ -127,8 +151,25 @@ def test_numerical_damping_of_the_generalized_alpha_step():
             r = math.sqrt(-c2)
             theta = math.acos(c1 / (2.0 * r))
             assert -math.log(r) / theta == pytest.approx(numerical_damping(omega_dt, rho), rel=1e-6, abs=1e-12)
+            assert theta / omega_dt == pytest.approx(step_frequency_ratio(omega_dt, rho), rel=1e-9)
     small = [numerical_damping(w, 0.0) for w in (0.05, 0.1)]
     assert math.log(small[1] / small[0]) / math.log(2.0) == pytest.approx(3.0, abs=0.2)
+
+
+@pytest.mark.jitless
+def test_step_frequency_ratio_is_the_trapezoidal_rules_and_second_order():
+    """rho_infinity = 1 is the trapezoidal rule: the ratio is 2 atan(omega dt / 2) / (omega dt) to round-off.
+
+    For every rho_infinity the step runs slow (ratio below 1) and the error 1 - ratio falls as (omega dt)^2:
+    slope between omega dt = 0.05 and 0.1 within 0.05 of 2.
+    """
+    for omega_dt in (0.05, 0.458, 1.3):
+        exact = 2.0 * math.atan(omega_dt / 2.0) / omega_dt
+        assert step_frequency_ratio(omega_dt, 1.0) == pytest.approx(exact, rel=1e-12)
+    for rho in (0.0, 0.5, 0.9, 1.0):
+        errors = [1.0 - step_frequency_ratio(w, rho) for w in (0.05, 0.1)]
+        assert all(e > 0.0 for e in errors)
+        assert math.log(errors[1] / errors[0]) / math.log(2.0) == pytest.approx(2.0, abs=0.05)
 
 
 def test_fly_modes_command_writes_the_modes(tmp_path, capsys):
@@ -142,11 +183,13 @@ def test_fly_modes_command_writes_the_modes(tmp_path, capsys):
     sets = [arg for key, value in COARSE.items() for arg in ("--set", f"{key}={value}")]
     assert main(["fly", str(SCENE2_FILE), *sets, "--modes", "-o", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "modes on the air bearing" in text and "zeta_num at dt = 0.1 us, rho_infinity = 0.9" in text
+    assert "modes on the air bearing" in text and "f_step, dt = 0.1 us, rho_infinity = 0.9" in text
     ds = open_result(out)
     assert list(ds["dof"].values) == ["z", "pitch", "roll"]
     assert ds["mode_shape"].dims == ("mode", "dof")
     assert np.all(ds["mode_damping_ratio"].values < 0.5) and np.all(ds["mode_frequency"].values > 0.0)
     assert np.all(ds["mode_numerical_damping"].values >= 0.0)
+    f, f_step = ds["mode_frequency"].values, ds["mode_step_frequency"].values
+    assert np.all((f_step < f) & (f_step > 0.9 * f))
     assert main(["fly", str(DEFAULT_SCENE), "--modes"]) == 2
     assert "--modes" in capsys.readouterr().err

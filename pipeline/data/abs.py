@@ -112,30 +112,37 @@ def modes(scene: AbsScene, steady: AbsSteady) -> tuple[list[str], dict[str, xr.V
 
     Each mode with the damping ratio the scene's time step adds to it (the generalized-alpha step at
     omega dt, ``numerics.rho_infinity``): where that is not small against the mode's own, a run's
-    response in that mode is set by the time step, not by the film.
+    response in that mode is set by the time step, not by the film.  And the frequency the step runs it
+    at (its period error): where a run's spectral peak should sit.
     """
     import math
 
-    from solver.abs.modes import air_bearing_modes, numerical_damping
+    from solver.abs.modes import air_bearing_modes, numerical_damping, step_frequency_ratio
 
     found = air_bearing_modes(scene, steady)
     num = scene.numerics
     added = np.array([numerical_damping(2.0 * math.pi * f * num.dt, num.rho_infinity) for f in found.frequency])
+    stepped = found.frequency * np.array(
+        [step_frequency_ratio(2.0 * math.pi * f * num.dt, num.rho_infinity) for f in found.frequency]
+    )
     lines = [
         f"  modes on the air bearing (linearized about steady flight, {found.nodes} film unknowns; "
-        f"the step adds zeta_num at dt = {num.dt * 1e6:g} us, rho_infinity = {num.rho_infinity:g}):",
-        "    frequency [kHz]  zeta      zeta_num   shape |z| : |pitch| L : |roll| W   flying height",
+        f"the step adds zeta_num and runs the mode at f_step, dt = {num.dt * 1e6:g} us, "
+        f"rho_infinity = {num.rho_infinity:g}):",
+        "    frequency [kHz]  zeta      zeta_num   f_step [kHz]  shape |z| : |pitch| L : |roll| W   flying height",
     ]
-    for f, zeta, z_num, shape, fh in zip(found.frequency, found.damping_ratio, added, found.shape, found.element,
-                                        strict=True):  # fmt: skip
-        lines.append(f"    {f * 1e-3:14.1f}  {zeta:.5f}  {z_num:.2e}   {shape[0]:.3f} : {shape[1]:.3f} : "
-                     f"{shape[2]:.3f}          {fh:.3f}")  # fmt: skip
+    for f, zeta, z_num, f_step, shape, fh in zip(found.frequency, found.damping_ratio, added, stepped, found.shape,
+                                                found.element, strict=True):  # fmt: skip
+        lines.append(f"    {f * 1e-3:14.1f}  {zeta:.5f}  {z_num:.2e}  {f_step * 1e-3:12.1f}  {shape[0]:.3f} : "
+                     f"{shape[1]:.3f} : {shape[2]:.3f}          {fh:.3f}")  # fmt: skip
     variables = {
         "dof": xr.Variable(("dof",), np.array(["z", "pitch", "roll"])),
         "mode_frequency": var(found.frequency, ("mode",), "Hz", "frequency of the slider's mode on its air bearing"),
         "mode_damping_ratio": var(found.damping_ratio, ("mode",), "1", "modal damping ratio (film and suspension)"),
         "mode_numerical_damping": var(added, ("mode",), "1",
                                       "damping ratio the scene's time step adds (generalized-alpha at omega dt)"),
+        "mode_step_frequency": var(stepped, ("mode",), "Hz",
+                                   "frequency the scene's time step runs the mode at (generalized-alpha at omega dt)"),
         "mode_shape": var(found.shape, ("mode", "dof"), "1",
                           "spacing amplitudes |z|, |pitch| L, |roll| W, largest 1"),
         "mode_flying_height": var(found.element, ("mode",), "1",
