@@ -21,7 +21,6 @@ rate (slope of the log envelope) over 100-900 us, hence its damping ratio.  Prin
 from __future__ import annotations
 
 import argparse
-import ast
 import math
 import sys
 from pathlib import Path
@@ -31,7 +30,7 @@ from scipy.signal import butter, hilbert, sosfiltfilt
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
+ABS_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007.toml"
 
 #: Band around the second pitch mode [Hz] and the fitted window [s].
 BAND = (650.0e3, 800.0e3)
@@ -59,20 +58,12 @@ def main() -> None:
     if args.t_end < WINDOW[1]:
         parser.error(f"--t-end = {args.t_end} s: the fit needs runs of at least {WINDOW[1]} s")
 
-    from step_timing import ABS_SCENE, load_scene
-
+    from pipeline.config import load_scene
     from solver.abs.integrate import simulate_abs
     from solver.abs.modes import air_bearing_modes, numerical_damping, step_frequency_ratio
     from solver.abs.steady import fly_start
 
-    extra = {}
-    for item in args.set:
-        key, _, value = item.partition("=")
-        try:
-            extra[key] = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            extra[key] = value
-    base = {"disk.rms": 0.0, "initial.zdot": args.zdot, "numerics.t_end": args.t_end, **extra}
+    base = ["disk.rms=0", f"initial.zdot={args.zdot!r}", f"numerics.t_end={args.t_end!r}", *args.set]
     scene = load_scene(ABS_SCENE, base)
     steady = fly_start(scene)
     modes = air_bearing_modes(scene, steady)
@@ -85,7 +76,7 @@ def main() -> None:
     print("  dt [us]  run: f [kHz]  zeta      step's root: f [kHz]  zeta + zeta_num   run - root: df [kHz]  dzeta")
     for dt_us in args.dt:
         dt = dt_us * 1e-6
-        run = load_scene(ABS_SCENE, {**base, "numerics.dt": dt, "numerics.output_interval": 0.0})
+        run = load_scene(ABS_SCENE, [*base, f"numerics.dt={dt!r}", "numerics.output_interval=0"])
         result = simulate_abs(run, steady)
         if result.status != 0:
             print(f"  {dt_us:7.4g}  failed: {result.message}")
