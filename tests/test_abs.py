@@ -148,6 +148,10 @@ PARAMETER_ERRORS = {
         ["numerics.film_jacobian_every", "0"],
     ),
     "film_repass negative": (lambda d: d["numerics"].update(film_repass=-1e-12), ["numerics.film_repass", "-1e-12"]),
+    "film_predictor not a predictor": (
+        lambda d: d["numerics"].update(film_predictor="quadratic"),
+        ["numerics.film_predictor", "'quadratic'", "'linear_model'"],
+    ),
     "unknown kind": (lambda d: d.update(kind="nonsense"), ["kind", "'nonsense'"]),
 }
 

@@ -75,6 +75,13 @@ force within their intervals, and its mean flying height is 13 pm low
   coupling alone (no S, K_f) is unstable at the default step: the pad's film
   stiffness gives omega^2 dt^2 = 1.03 (measured K_f = 4.7e6 N/m in z).
 
+``numerics.film_predictor`` says where the linearized film's path comes from: "extrapolated" (default) takes
+the Newmark attitude of the extrapolated acceleration above; "linear_model" solves the step's balance with every
+force linear about the present state (the film's f_n + K_f (q - q_n) plus the last step's change that K_f does
+not explain: the disk, the squeeze; the surface forces' f_s + (d f_s / d q) (q - q_n)) and advances the film
+along that solution's attitude.  The linear correction then carries far less (README, "Scene 2 benchmark"),
+for one 3 x 3 solve per step.
+
 ``numerics.contact_omega_dt`` > 0 splits a step of dt into 2^j equal substeps (j <= ``numerics.contact_splits``)
 where the surface forces' stiffness K_s needs it: omega_c h <= contact_omega_dt with omega_c^2 the largest
 eigenvalue of M^-1 K_s, at the step's start and at every substep's end (a substep whose end needs more is taken
@@ -199,6 +206,9 @@ class AbsStepper:
         self.contact_level = 0  # halvings of the last step (contact_split_step: no coarsening while in contact)
         self.residual = 0.0
         self.a_prev, self.h_prev = None, 0.0  # the acceleration and size of the last accepted step
+        self.model_predictor = self.linearized and num.film_predictor == "linear_model"
+        self.f_prev, self.q_prev = None, None  # the film force and attitude at the last step's start
+        self.predictions = 0  # steps whose film path came from the linear model
         self._omega_of, self._omega = None, 0.0  # contact_omega's last surface forces and value
 
     def set_rho(self, rho: float) -> None:
@@ -242,6 +252,7 @@ class AbsStepper:
         self.film.P[:] = P
         self.film.set_disk(self.zd)
         self.jacobian_h = 0.0
+        self.f_prev = None
 
     def contact_omega(self) -> float:
         """omega_c [rad/s]: the largest eigenvalue of M^-1 K_s, K_s = -d f_surface / d q at the present state.
@@ -278,6 +289,13 @@ class AbsStepper:
         f_old = self.f_air + self.sf.f
         a_new = self._predicted_acceleration(h)
         q_path = q + h * v + 0.5 * h * h * a + self.beta * h * h * (a_new - a)  # Newmark's q(a_new)
+        if self.model_predictor and self.f_prev is not None and h == self.jacobian_h and h == self.h_prev:
+            # The step's Newton problem with the film force from its linear model about the last step: the film's
+            # derivatives K_f for the attitude, the last step's change left over by them for the rest (the disk,
+            # the squeeze).  Its attitude is the path the film is advanced along.
+            a_new = self._model_acceleration(h, a_new, q_path, f_old)
+            q_path = q + h * v + 0.5 * h * h * a + self.beta * h * h * (a_new - a)
+            self.predictions += 1
         passes = LINEARIZED_PASSES if self.linearized else 2
         for film_pass in range(passes):
             if film_pass:
@@ -303,6 +321,7 @@ class AbsStepper:
         self.substeps += 1
         self.jacobian_age += 1
         self.a_prev, self.h_prev = a, h
+        self.f_prev, self.q_prev = self.f_air, q
         self.t, self.q, self.v, self.a = t1, q1, v1, a_new
         self.zd, self.f_air, self.sf = zd1, f_air, sf
         return ""
@@ -318,6 +337,25 @@ class AbsStepper:
         if not self.linearized or self.a_prev is None:
             return self.a.copy()
         return self.a + (h / self.h_prev) * (self.a - self.a_prev)
+
+    def _model_acceleration(self, h: float, a0: np.ndarray, q0: np.ndarray, f_old: np.ndarray) -> np.ndarray:
+        """a_n+1 of the step's balance with every force linear about the present state (film_predictor 'linear_model').
+
+        The film force is f_n + K_f (q - q_n) plus the drift: the change over the last step that K_f does not
+        explain (the disk, the squeeze); the surface forces are f_s + (d f_s / d q) (q - q_n).  The balance is
+        then linear in a_n+1: one solve of the Newton matrix from the guess a0 (whose attitude is q0).
+        """
+        q, v, a, sf = self.q, self.v, self.a, self.sf
+        am, af, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
+        stiffness = self.film_K + sf.dfdq
+        drift = self.f_air - self.f_prev - self.film_K @ (q - self.q_prev)
+        v0 = v + h * ((1.0 - gamma) * a + gamma * a0)
+        forces = self.f_air + drift + sf.f + stiffness @ (q0 - q)
+        inertia = self.M @ ((1.0 - am) * a0 + am * a)
+        suspension = self.C @ ((1.0 - af) * v0 + af * v) + self.K @ ((1.0 - af) * q0 + af * q - self.q_ref)
+        G = inertia + suspension - self.f_static - af * f_old - (1.0 - af) * forces
+        J = (1.0 - am) * self.M + (1.0 - af) * (gamma * h * self.C + beta * h * h * (self.K - stiffness))
+        return a0 - knewmark.solve3(J, G)
 
     def _film_step(self, q_path: np.ndarray, zd1: np.ndarray, h: float) -> np.ndarray | None:
         """Advance the film from t (attitude q, disk zd) to t + h along q -> q_path: its forces, None if it failed.

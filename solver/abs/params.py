@@ -345,6 +345,8 @@ class AbsModels(Section):
 
 
 FILM_COUPLINGS = ("two_pass", "linearized")
+#: How a linearized step predicts the attitude path of its film step (numerics.film_predictor).
+FILM_PREDICTORS = ("extrapolated", "linear_model")
 
 
 @dataclass(frozen=True)
@@ -419,6 +421,14 @@ class AbsNumerics(Section):
         "again along the corrected one; 'linearized' advances it once and corrects it to the corrected path with "
         "its derivatives (forward differences, refreshed every film_jacobian_every steps)",
         choices=FILM_COUPLINGS,
+    )
+    film_predictor: str = quantity(
+        "extrapolated",
+        "",
+        "film_coupling 'linearized': the attitude path the film is advanced along; 'extrapolated' takes the "
+        "acceleration a_n + h (a_n - a_n-1) / h_n-1, 'linear_model' solves the step's balance with every force "
+        "linear about the present state (the film's derivatives and the last step's change): a better path",
+        choices=FILM_PREDICTORS,
     )
     film_jacobian_every: int = quantity(
         50, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
