@@ -346,7 +346,7 @@ class AbsModels(Section):
 
 FILM_COUPLINGS = ("two_pass", "linearized")
 #: How a linearized step predicts the attitude path of its film step (numerics.film_predictor).
-FILM_PREDICTORS = ("extrapolated", "linear_model")
+FILM_PREDICTORS = ("extrapolated", "linear_model", "tangent")
 
 
 @dataclass(frozen=True)
@@ -423,12 +423,14 @@ class AbsNumerics(Section):
         choices=FILM_COUPLINGS,
     )
     film_predictor: str = quantity(
-        "extrapolated",
+        "tangent",
         "",
-        "film_coupling 'linearized': the attitude path the film is advanced along; 'extrapolated' takes the "
-        "acceleration a_n + h (a_n - a_n-1) / h_n-1, 'linear_model' solves the step's balance with every force "
-        "linear about the present state (the film's derivatives and the last step's change): a smaller coupling "
-        "error, but a rough track's bouncing about 10 % low at dt 0.1 us (README, 'The film's predictor')",
+        "film_coupling 'linearized': the attitude path the film is advanced along; 'tangent' solves the step's "
+        "Newton problem with the film force on its tangent about the present state, f_n + K_f (q - q_n); "
+        "'extrapolated' takes the acceleration a_n + h (a_n - a_n-1) / h_n-1 (lets stale derivatives grow the "
+        "film's mode on a rough track); 'linear_model' adds the last step's change that K_f does not explain to the "
+        "tangent and linearizes the surface forces (a rough track's bouncing about 10 % low at dt 0.1 us): README, "
+        "'The film's predictor'",
         choices=FILM_PREDICTORS,
     )
     film_jacobian_every: int = quantity(
