@@ -55,25 +55,41 @@ CASES = (
 )
 QUICK = (("coarse 81x67, dt 0.1 us", 81, 67, 0.1e-6), ("reference 81x67, dt 0.05 us", 81, 67, 0.05e-6))
 
-#: The scene-2 default until November 2026 (dt 0.05 us with these): fixed steps, rho_inf 0.5 to damp the contact.
-PREVIOUS_DEFAULT = {"numerics.rho_infinity": 0.5, "numerics.contact_omega_dt": 0.0, "numerics.film_jacobian_every": 100}
+#: The scene-2 default until November 2026 (dt 0.05 us with these): fixed steps, rho_inf 0.5 to damp the contact,
+#: the film advanced along the extrapolated acceleration's path.
+PREVIOUS_DEFAULT = {"numerics.rho_infinity": 0.5, "numerics.contact_omega_dt": 0.0, "numerics.film_jacobian_every": 100,
+                    "numerics.film_predictor": "extrapolated"}  # fmt: skip
 
 #: (name, description, overrides, dt factor) of the compared settings, on the scene's grid and dt x factor.
 SETTINGS = (
     (
         "default",
         "the scene's numerics: dt 0.1 us, rho_inf 0.9, contact substeps to omega_c h <= 0.5 (at most 8), the film's "
-        "derivatives every 50 steps",
+        "derivatives every 50 steps, the film advanced along the step's solution with the film on its tangent",
         {},
         1.0,
     ),
     (
+        "extrapolated",
+        "the default until 2026-11-28: the scene's numerics with the film advanced along the extrapolated "
+        "acceleration's path",
+        {"numerics.film_predictor": "extrapolated"},
+        1.0,
+    ),
+    (
         "previous default",
-        "the default until November 2026: dt 0.05 us, rho_inf 0.5, fixed steps, the film's derivatives every 100 steps",
+        "the default until November 2026: dt 0.05 us, rho_inf 0.5, fixed steps, the film's derivatives every 100 "
+        "steps, the extrapolated path",
         PREVIOUS_DEFAULT,
         0.5,
     ),
-    ("default 2 dt", "the default at twice its step (0.2 us), substeps to dt / 4 in contact", {}, 2.0),
+    (
+        "default 2 dt",
+        "the default at twice its step (0.2 us): the film's derivatives every 25 steps (5 us, as the default's), "
+        "contact substeps to dt / 16 (12.5 ns, as the default's finest)",
+        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4},
+        2.0,
+    ),
 )
 #: The fine reference of the accuracy runs (not timed): the default at a quarter of its step (0.025 us), whose
 #: generalized-alpha damping of the 728-kHz mode is 1e-7 against its physical 1.58e-3.
