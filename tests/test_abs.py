@@ -152,6 +152,11 @@ PARAMETER_ERRORS = {
         lambda d: d["numerics"].update(film_predictor="quadratic"),
         ["numerics.film_predictor", "'quadratic'", "'linear_model'"],
     ),
+    "film_omega_dt negative": (lambda d: d["numerics"].update(film_omega_dt=-1.0), ["numerics.film_omega_dt", "-1.0"]),
+    "film_omega_dt without contact substeps": (
+        lambda d: d["numerics"].update(film_omega_dt=1.0, contact_omega_dt=0.0),
+        ["numerics.film_omega_dt", "1.0", "contact_omega_dt"],
+    ),
     "unknown kind": (lambda d: d.update(kind="nonsense"), ["kind", "'nonsense'"]),
 }
 

@@ -93,6 +93,13 @@ back and the rest of the step redone finer; out of contact omega_c = 0).  The sa
 the stiff landing at dt 0.2 us and rho 0.8, E_after / E_before is 1.73 with fixed steps and 0.9993 split to
 omega_c h <= 0.5 (0.9992 at fixed dt / 8; 0.9985 split before the substeps kept their size through a contact).
 
+``numerics.film_omega_dt`` > 0 splits steps the same way where the film is too stiff for them: omega_f h <=
+film_omega_dt, omega_f^2 the largest |eigenvalue| of M^-1 K_f at the last refresh of the film's derivatives.  The
+linearized coupling with derivatives some steps old stays stable while omega_f h is about 1 or less: at dt 0.2 us
+the default face's 728-kHz mode has omega_f h = 1.03-1.13, and the 80-um trailing pad near contact up to 2.3 (0.2-0.5
+at dt 0.1 us), where its pitch mode grew from the first microseconds and flew the pad off at tens of nm; refreshed
+every step it ran through (README, "A step the film can follow").
+
 The surface stiffness (asperities: 1e7-1e9 N/m) is far above the film's,
 and the implicit treatment keeps the step stable with dt set by the film
 and the disk's features, not by the contact.
@@ -135,6 +142,10 @@ FORCE_ROUND_OFF = 1e-12
 #: smallest damping factor that is taken anyway.
 MAX_BACKTRACKS = 12
 MIN_DAMPING = 1e-3
+#: Newton tolerance of the tangent predictor's solve (force / preload): its attitude is only the film's path, and a
+#: residual r moves it by about r beta h^2 / m (1e-6 of the preload: ~1e-16 m at dt 0.2 us), far below the linear
+#: correction that follows.
+PREDICTOR_TOL = 1e-6
 #: Film passes of a linearized step at most: along the predicted path, then along the corrected ones while the
 #: corrected attitude moves the face farther than numerics.film_repass, or the correction makes P negative.
 LINEARIZED_PASSES = 3
@@ -183,6 +194,7 @@ class AbsStepper:
         self.linearized = self.use_air and num.film_coupling == "linearized"
         self.repass_gap = num.film_repass if self.linearized else 0.0
         self.jacobian_every = num.film_jacobian_every
+        self.film_omega = 0.0  # omega_f [rad/s]: sqrt of the largest |eigenvalue| of M^-1 K_f at the last refresh
         self.film_K = np.zeros((3, 3))
         self.film_dPdq = np.zeros((3, *film.P.shape))
         self.jacobian_age, self.jacobian_h = 0, 0.0
@@ -191,6 +203,8 @@ class AbsStepper:
         self.m_inv = np.linalg.inv(self.M)
         self.set_rho(num.rho_infinity)
         self.controls = (self.tol, FORCE_ROUND_OFF, self.newton_max_iter, MAX_BACKTRACKS, MIN_DAMPING)
+        scale = max(scene.suspension.preload, MIN_FORCE_SCALE)
+        self.predictor_controls = (max(self.tol, PREDICTOR_TOL * scale), *self.controls[1:])
         s = scene.slider
         corners_x = np.array([0.0, s.length, s.length, 0.0]) - s.pivot_x
         corners_y = np.array([-0.5, -0.5, 0.5, 0.5]) * s.width - s.pivot_y
@@ -214,6 +228,7 @@ class AbsStepper:
         self.f_prev, self.q_prev = None, None  # the film force and attitude at the last step's start
         self.predictions = 0  # steps whose film path came from a model of the step (film_predictor)
         self._omega_of, self._omega = None, 0.0  # contact_omega's last surface forces and value
+        self._cache, self._cache_cells = np.empty((4, 0)), None  # the candidates' adhesion, kept (newton_step)
 
     def set_rho(self, rho: float) -> None:
         """The generalized-alpha parameters of spectral radius rho at infinite frequency (Chung & Hulbert)."""
@@ -303,7 +318,7 @@ class AbsStepper:
         elif self.predictor == "tangent" and h == self.jacobian_h:
             # The step's own Newton problem (the surface forces as they are) with the film force on its tangent
             # about the present state, f_n + K_f (q - q_n).  A failed solve keeps the extrapolated path.
-            solved = self._newton(h, cells, a_new, self.f_air, q, f_old)
+            solved = self._newton(h, cells, a_new, self.f_air, q, f_old, self.predictor_controls)
             if solved is not None:
                 a_new = solved[0]
                 q_path = q + h * v + 0.5 * h * h * a + self.beta * h * h * (a_new - a)
@@ -314,7 +329,7 @@ class AbsStepper:
                 self.film_repasses += 1
                 film.P[:] = P_saved
             f_path = self._film_step(q_path, zd1, h)
-            if f_path is None or (self.linearized and not self._film_jacobian(P_saved, q_path, zd1, h)):
+            if f_path is None or (self.linearized and not self._film_jacobian(P_saved, q_path, zd1, h, f_path)):
                 return fail("film failed (pressure not positive and finite)")
             solved = self._newton(h, cells, a_new, f_path, q_path, f_old)
             if solved is None:
@@ -392,7 +407,9 @@ class AbsStepper:
             return True
         return kfilm.add_linear(self.film.P, self.film_dPdq, dq)
 
-    def _film_jacobian(self, P_start: np.ndarray, q_path: np.ndarray, zd1: np.ndarray, h: float) -> bool:
+    def _film_jacobian(
+        self, P_start: np.ndarray, q_path: np.ndarray, zd1: np.ndarray, h: float, f_path: np.ndarray
+    ) -> bool:
         """Refresh, when due, the film step's derivatives with respect to the attitude at t + h; False if it failed.
 
         The film step P_n -> P_n+1(q_n+1) (from ``P_start``, along q -> q_path, just taken: ``film.P``) is
@@ -404,7 +421,6 @@ class AbsStepper:
             return True
         film = self.film
         P_path = film.P.copy()
-        f_path = film.forces()
         for k in range(3):
             probe = FILM_PROBE / np.max(np.abs(self.corner_b[:, k]))
             film.P[:] = P_start
@@ -416,14 +432,24 @@ class AbsStepper:
         film.P[:] = P_path
         self.jacobian_age, self.jacobian_h = 0, h
         self.jacobian_refreshes += 1
-        return bool(np.all(np.isfinite(self.film_K)))
+        if not np.all(np.isfinite(self.film_K)):
+            return False
+        self.film_omega = math.sqrt(float(np.max(np.abs(np.linalg.eigvals(self.m_inv @ self.film_K)))))
+        return True
 
     def _path_gap(self, dq: np.ndarray) -> float:
         """Largest change of the spacing over the face's corners [m] made by the attitude change dq."""
         return float(np.max(np.abs(self.corner_b @ dq)))
 
     def _newton(
-        self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray, f_old: np.ndarray
+        self,
+        h: float,
+        cells: Candidates,
+        a_new: np.ndarray,
+        f_path: np.ndarray,
+        q_path: np.ndarray,
+        f_old: np.ndarray,
+        controls: tuple | None = None,
     ):
         """Newton's method on a_n+1: (a, q, v, sf) at t + h, or None.
 
@@ -433,13 +459,18 @@ class AbsStepper:
         :meth:`_newton_python`, the same iteration.
 
         None when it did not converge in ``numerics.newton_max_iter`` iterations (``self.residual`` holds the
-        last weighted residual).
+        last weighted residual).  ``controls``: (tolerance, round-off, iterations, backtracks, smallest damping),
+        the stepper's by default (``predictor_controls``: the tangent predictor's looser tolerance).
         """
+        controls = self.controls if controls is None else controls
         if not self.newton_kernel:
-            return self._newton_python(h, cells, a_new, f_path, q_path, f_old)
+            return self._newton_python(h, cells, a_new, f_path, q_path, f_old, controls[0])
         disk_rate = self._disk_rate(h, cells)
         q1, v1, f_s, dfdq = np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
         a_new = a_new.copy()
+        fill = self._cache_cells is not cells  # the first solve over these cells: the predictor's, or the only one
+        if fill:
+            self._cache, self._cache_cells = np.empty((4, cells.base.size)), cells
         iterations, self.residual, converged, contact, adhesion, in_reach = knewmark.newton_step(
             a_new,
             h,
@@ -449,11 +480,13 @@ class AbsStepper:
             (cells.base, cells.sigma, cells.b, cells.area),
             self.surface.kernel_law,
             (self.damping_ratio, self.m_inv, disk_rate),
-            self.controls,
+            controls,
             q1,
             v1,
             f_s,
             dfdq,
+            tuple(self._cache),
+            fill,
         )
         self.newton += iterations
         if not converged:
@@ -470,7 +503,14 @@ class AbsStepper:
         return (disk_end - self.zd.ravel()[index]) / h
 
     def _newton_python(
-        self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray, f_old: np.ndarray
+        self,
+        h: float,
+        cells: Candidates,
+        a_new: np.ndarray,
+        f_path: np.ndarray,
+        q_path: np.ndarray,
+        f_old: np.ndarray,
+        tol: float | None = None,
     ):
         """:meth:`_newton` in Python, on the surface model's forces (any contact law, with its contact damping:
         its matrix in the iteration matrix; the elastic law's attitude derivative of the damping is left out)."""
@@ -478,7 +518,8 @@ class AbsStepper:
         surface = self.surface
         M, C, K = self.M, self.C, self.K
         alpha_m, alpha_f, gamma, beta = self.alpha_m, self.alpha_f, self.gamma, self.beta
-        weights, tol = self.weights, self.tol
+        weights = self.weights
+        tol = self.tol if tol is None else tol
         q, v, a = self.q, self.v, self.a
         film_K = self.film_K
 
@@ -566,7 +607,14 @@ def contact_splits_needed(omega: float, dt: float, limit: float, most: int) -> i
 
 
 def contact_split_step(
-    stepper: AbsStepper, t0: float, dt: float, limit: float, most: int, rho: float, rho_contact: float
+    stepper: AbsStepper,
+    t0: float,
+    dt: float,
+    limit: float,
+    most: int,
+    rho: float,
+    rho_contact: float,
+    film_limit: float = 0.0,
 ) -> str | None:
     """Advance from t0 by dt in 2^j equal substeps, j set by the contact's frequency (``numerics.contact_omega_dt``).
 
@@ -580,12 +628,18 @@ def contact_split_step(
     fixed steps and 0.989 at fixed dt / 4).  A substep whose contact is too stiff for it even at the finest size
     (omega_c h > limit at its start or its end, with j = most) takes the spectral radius ``rho_contact`` instead of
     ``rho`` (taken back and redone with it when only its end is), to damp the modes it cannot resolve; the
-    acceleration restarts at every change of rho.  None, or the message of a failed substep.
+    acceleration restarts at every change of rho.  With ``film_limit`` > 0 (``numerics.film_omega_dt``) the film's
+    frequency omega_f (:attr:`AbsStepper.film_omega`, at the last refresh of its derivatives) asks for halvings too,
+    omega_f h <= film_limit, at the start and at each substep's end (a refresh that finds the film stiffer has the
+    substep redone finer, as the contact's; the run's first step, before any refresh, is one); it does not hold the
+    level from step to step.  None, or the message of a failed substep.
     """
     omega = stepper.contact_omega()
     j = contact_splits_needed(omega, dt, limit, most)
     if omega > 0.0:
         j = max(j, stepper.contact_level)
+    if film_limit > 0.0:
+        j = max(j, contact_splits_needed(stepper.film_omega, dt, film_limit, most))
     k = 0  # substeps of dt / 2^j taken
     damp_next = False  # the substep is redone with rho_contact: its end was unresolved
     while k < 2**j:
@@ -605,6 +659,8 @@ def contact_split_step(
             return failure
         omega = stepper.contact_omega()
         j_end = contact_splits_needed(omega, dt, limit, most)
+        if film_limit > 0.0:  # the film's frequency as refreshed in this substep (the run's first, a stiffening)
+            j_end = max(j_end, contact_splits_needed(stepper.film_omega, dt, film_limit, most))
         if j_end > j and saved is not None and j < most:
             stepper.restore(saved)
             stepper.contact_redos += 1
@@ -654,7 +710,7 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         stepper.t = n * dt  # on the grid: no round-off accumulates over the run
         if num.contact_omega_dt > 0.0:
             failure = contact_split_step(stepper, n * dt, dt, num.contact_omega_dt, num.contact_splits,
-                                         num.rho_infinity, num.rho_infinity_contact)  # fmt: skip
+                                         num.rho_infinity, num.rho_infinity_contact, num.film_omega_dt)  # fmt: skip
         else:
             failure = stepper.step(dt)
         if failure:

@@ -399,6 +399,15 @@ class AbsNumerics(Section):
         "where the contact needs it, at its start or at a substep's end (then redone finer); 0: fixed steps of dt",
         lo=0.0,
     )
+    film_omega_dt: float = quantity(
+        0.0,
+        "1",
+        "largest omega_f h of a step, omega_f^2 the largest |eigenvalue| of M^-1 K_f, K_f the film step's force "
+        "derivatives at their last refresh (film_coupling 'linearized'): a step of dt is split into 2^j equal "
+        "substeps (j <= contact_splits) where the film is stiffer (a pad near contact); 0: the film does not split "
+        "steps",
+        lo=0.0,
+    )
     contact_splits: int = quantity(
         3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
     )
@@ -464,6 +473,11 @@ class AbsNumerics(Section):
             raise ParameterError(
                 f"numerics.settle_time = {self.settle_time!r} is not allowed with numerics.t_end = {self.t_end!r}: "
                 "must be shorter than the run [s]"
+            )
+        if self.film_omega_dt > 0.0 and self.contact_omega_dt == 0.0:
+            raise ParameterError(
+                f"numerics.film_omega_dt = {self.film_omega_dt!r} is not allowed with numerics.contact_omega_dt = 0: "
+                "the film splits steps with the contact's substeps (set contact_omega_dt > 0, or film_omega_dt = 0)"
             )
         ratio = self.output_interval / self.dt
         if self.output_interval != 0.0 and (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio):

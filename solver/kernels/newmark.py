@@ -137,6 +137,8 @@ def newton_step(
     v1: np.ndarray,
     f_s: np.ndarray,
     dfdq: np.ndarray,
+    cache: tuple,
+    fill: bool,
 ) -> tuple[int, float, bool, float, float, int]:
     """Newton's method on a_n+1 (the module docstring), in place on a_new (the initial guess on entry).
 
@@ -146,8 +148,12 @@ def newton_step(
     damping : (zeta, M^-1, disk rate at the cells) of the contact damping
     (:func:`solver.kernels.surface.contact_damping`; zeta = 0: none);
     controls : (tol, round_off, max_iter, max_backtracks, min_damping).  On return q1, v1, f_s, dfdq
-    hold the last iterate's attitude, velocities, surface force and its Jacobian.  Returns (iterations,
-    weighted residual, converged, contact force, adhesion force, cells in reach).
+    hold the last iterate's attitude, velocities, surface force and its Jacobian.  ``cache`` = (d, p_a, p_a',
+    p_a'') (k,) each: the cells' adhesion kept for its Taylor expansion
+    (:func:`~solver.kernels.surface.generalized_forces`), filled at the first iterate when ``fill``, else
+    taken as left by an earlier solve over the same cells (the step's predictor: a cell it no longer covers
+    is evaluated afresh).  Returns (iterations, weighted residual, converged, contact force, adhesion force,
+    cells in reach).
     """
     M, C, K, q_ref, f_static, weights, alpha_m, alpha_f, gamma, beta = scheme
     f_path, q_path, film_K, f_old = film
@@ -158,11 +164,10 @@ def newton_step(
     tJ = np.empty((3, 3))
     Cs, tC = np.empty((3, 3)), np.empty((3, 3))
     Jn = np.empty((3, 3))
-    n_cells = cells[0].size
-    cache = (np.empty(n_cells), np.empty(n_cells), np.empty(n_cells), np.empty(n_cells))
     contact, adhesion, in_reach = _balance(
-        a_new, h, state, scheme, film, cells, law, damping, q1, v1, f_s, dfdq, Cs, G, cache, CACHE_FILL
-    )
+        a_new, h, state, scheme, film, cells, law, damping, q1, v1, f_s, dfdq, Cs, G, cache,
+        CACHE_FILL if fill else CACHE_USE,
+    )  # fmt: skip
     norm = _weighted_max(G, weights)
     scale = _weighted_max(f_path, weights)
     iterations = 0
