@@ -187,7 +187,7 @@ def test_a_film_stiffer_than_film_omega_dt_splits_steps_into_the_finer_run():
     """numerics.film_omega_dt: where omega_f dt exceeds it (omega_f^2 the largest |eigenvalue| of M^-1 K_f), the step
     is split like a contact's, and the run is the run at the finer step.
 
-    On the drop omega_f dt / 2 is 0.78-0.87 (measured), so with film_omega_dt = 0.6 every step of 0.2 us is two of
+    On the drop omega_f x 0.2 us is 0.78-0.87 (measured), so with film_omega_dt = 0.6 every step of 0.2 us is two of
     0.1 us, and every step of 0.4 us four (the run's first step is taken whole, then redone split once its
     refresh has measured omega_f): the flying height equals the 0.1-us run's to round-off (measured: identical).
     Without the split the 0.2-us run is 363 pm from the 0.1-us one.

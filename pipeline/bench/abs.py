@@ -94,7 +94,7 @@ SETTINGS = (
         "1.5 dt, film split",
         "the default at 1.5 times its step (0.15 us): the film's derivatives every 33 steps (5 us), contact substeps "
         "to dt / 16 (9.4 ns), and a step split where the film is stiffer than omega_f h = 1 (numerics.film_omega_dt: "
-        "a pad near sustained contact; the default face's 728-kHz mode is at 0.77-0.85)",
+        "a pad near sustained contact; the default face's 728-kHz mode is at 0.76-0.80)",
         {"numerics.film_jacobian_every": 33, "numerics.contact_splits": 4, "numerics.film_omega_dt": 1.0},
         1.5,
     ),

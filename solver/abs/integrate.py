@@ -95,10 +95,10 @@ omega_c h <= 0.5 (0.9992 at fixed dt / 8; 0.9985 split before the substeps kept 
 
 ``numerics.film_omega_dt`` > 0 splits steps the same way where the film is too stiff for them: omega_f h <=
 film_omega_dt, omega_f^2 the largest |eigenvalue| of M^-1 K_f at the last refresh of the film's derivatives.  The
-linearized coupling with derivatives some steps old stays stable while omega_f h is about 1 or less: at dt 0.2 us
-the default face's 728-kHz mode has omega_f h = 1.03-1.13, and the 80-um trailing pad near contact up to 2.3 (0.2-0.5
-at dt 0.1 us), where its pitch mode grew from the first microseconds and flew the pad off at tens of nm; refreshed
-every step it ran through (README, "A step the film can follow").
+linearized coupling with derivatives some steps old stays stable while omega_f h is below about 1: at dt 0.2 us
+the default face's 728-kHz mode has omega_f h = 1.01-1.06, and the 80-um trailing pad near contact up to 2.3 (at most
+0.96 at dt 0.1 us), where its pitch mode grew from the first microseconds and flew the pad off at tens of nm;
+refreshed every step it ran through (README, "A step the film can follow").
 
 The surface stiffness (asperities: 1e7-1e9 N/m) is far above the film's,
 and the implicit treatment keeps the step stable with dt set by the film
