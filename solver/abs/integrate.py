@@ -441,16 +441,8 @@ class AbsStepper:
         """Largest change of the spacing over the face's corners [m] made by the attitude change dq."""
         return float(np.max(np.abs(self.corner_b @ dq)))
 
-    def _newton(
-        self,
-        h: float,
-        cells: Candidates,
-        a_new: np.ndarray,
-        f_path: np.ndarray,
-        q_path: np.ndarray,
-        f_old: np.ndarray,
-        controls: tuple | None = None,
-    ):
+    def _newton(self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray,
+                f_old: np.ndarray, controls: tuple | None = None):  # fmt: skip
         """Newton's method on a_n+1: (a, q, v, sf) at t + h, or None.
 
         The film force is f_path, that of the film advanced along q -> q_path, plus ``film_K`` (q_n+1 - q_path)
@@ -502,16 +494,8 @@ class AbsStepper:
         disk_end = self.surface.surface[index] - cells.base  # cells.base = surface - disk at t + h
         return (disk_end - self.zd.ravel()[index]) / h
 
-    def _newton_python(
-        self,
-        h: float,
-        cells: Candidates,
-        a_new: np.ndarray,
-        f_path: np.ndarray,
-        q_path: np.ndarray,
-        f_old: np.ndarray,
-        tol: float | None = None,
-    ):
+    def _newton_python(self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray,
+                       f_old: np.ndarray, tol: float | None = None):  # fmt: skip
         """:meth:`_newton` in Python, on the surface model's forces (any contact law, with its contact damping:
         its matrix in the iteration matrix; the elastic law's attitude derivative of the damping is left out)."""
         disk_rate = self._disk_rate(h, cells)
