@@ -114,6 +114,10 @@ class AbsFilm:
         self._edges = (self._edge_links(0, cx.face), self._edge_links(1, cy.face))
         self._width_x, self._width_y = control_volume_widths(g.x), control_volume_widths(g.y)  # [m]
         self._links = self._link_arguments()
+        self._advance_geometry = (
+            g.x, g.y, *self.pivot, self.storage, self.surface_xf, self.surface_yf, g.surface_xe, g.surface_ye,
+            self.inv_href, self.floor, cx.seg_x, cx.seg_y, cx.seg_surface, cy.seg_x, cy.seg_y, cy.seg_surface,
+        )  # fmt: skip
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
         self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
         self._pattern = _jacobian_pattern(nx, ny)
@@ -165,8 +169,7 @@ class AbsFilm:
         error in the load (order 0.99 on a plane wedge at Lambda 9571, against 1.97 at Lambda 61).
         """
         g, (xp, yp) = self.grid, self.pivot
-        f, mp, mr = kf.film_forces(self.P, g.area, g.x, g.y, xp, yp)
-        return self.p0 * (np.array([f, mp, mr]) + self._link_corrections())
+        return self.p0 * np.array(kf.film_forces_linked(self.P, g.area, g.x, g.y, xp, yp, *self._links))
 
     def force_gradient(self) -> np.ndarray:
         """d(:meth:`forces`)/dP at the current pressure and spacings: (3, nx, ny) [N, N m, N m per unit P].
@@ -324,23 +327,23 @@ class AbsFilm:
 
     # time step ----------------------------------------------------------------------------------------
 
-    def step(self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float) -> None:
-        """Advance P over dt while the attitude moves q_old -> q_new and the disk disk_old -> disk_new."""
-        g = self.grid
+    def step(self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float) -> bool:
+        """Advance P over dt while the attitude moves q_old -> q_new and the disk disk_old -> disk_new (nx, ny) [m];
+        True if every node pressure after it is positive.
+
+        One kernel call (:func:`solver.kernels.film.film_advance`): the links' spacings at mid-step, the step,
+        then the force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
+        mid-step they lag the attitude by dt / 2, a first-order error that took 17 % of the 728-kHz mode's
+        damping at dt 0.05 us (README, "The film force's time error").  The other links keep their mid-step
+        spacings (what the next step or :meth:`fill_faces` overwrites).
+        """
         disk_old, disk_new = np.ascontiguousarray(disk_old, dtype=float), np.ascontiguousarray(disk_new, dtype=float)
-        for q, disk, H in ((q_old, disk_old, self.H), (q_new, disk_new, self.H_new)):  # the storage's spacings
-            kf.fill_spacing(q, g.x, g.y, *self.pivot, self.storage, disk[None], self.inv_href, self.floor, H)
-        kf.set_disk_mid(disk_old, disk_new, self._disk_mid, self.disk, self.disk_xf, self.disk_yf)
-        self.fill_faces(0.5 * (q_old + q_new))  # the links' spacings at mid-step
-        self.set_disk(disk_new)
-        kf.film_step(
-            self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.sigma / dt, *self._kernel_film
-        )
-        # The force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
-        # mid-step they lag the attitude by dt / 2, a first-order error that took 17 % of the 728-kHz mode's
-        # damping at dt 0.05 us (README, "The film force's time error").
-        self.fill_faces(q_new)
+        state = (self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.disk, self.disk_xf,
+                 self.disk_yf, self._disk_mid)  # fmt: skip
+        ok = kf.film_advance(q_old, q_new, disk_old[None], disk_new[None], self.sigma / dt, self._advance_geometry,
+                             state, *self._kernel_film)  # fmt: skip
         self.reynolds_solves += 1
+        return ok
 
     @property
     def bearing_number(self) -> float:

@@ -122,16 +122,10 @@ class SurfaceModel:
         A time step's Newton iterations then evaluate only these cells
         (:meth:`forces_on`), instead of the whole face.
         """
-        disk, s_flat = disk.ravel(), sigma.ravel()
-        count = ksurf.near_cells(self.surface, disk, s_flat, self.b, q, self.reach, REACH_SIGMAS, margin, self.near)
-        near = self.near[:count].copy()
-        return Candidates(
-            near,
-            self.surface[near] - disk[near],
-            s_flat[near],
-            np.ascontiguousarray(self.b[:, near]),
-            self.area[near],
-        )
+        cells = ksurf.candidate_cells(
+            self.surface, disk.ravel(), sigma.ravel(), self.b, self.area, q, self.reach, REACH_SIGMAS, margin, self.near
+        )  # fmt: skip
+        return Candidates(*cells)
 
     def forces_on(self, cells: Candidates, q: np.ndarray, damping: tuple | None = None) -> SurfaceForces:
         """Surface forces at attitude q from the candidate cells only.

@@ -392,9 +392,10 @@ class AbsStepper:
         if not self.use_air:
             return self.f_air
         film = self.film
-        film.step(self.q, q_path, self.zd, zd1, h)
+        if not film.step(self.q, q_path, self.zd, zd1, h):
+            return None
         f_air = film.forces()
-        if not (np.all(np.isfinite(f_air)) and np.all(film.P > 0.0)):
+        if not (math.isfinite(f_air[0]) and math.isfinite(f_air[1]) and math.isfinite(f_air[2])):
             return None
         return f_air
 

@@ -47,8 +47,6 @@ class Track:
         width = wx[:, None] * abs(math.cos(psi)) + wy[None, :] * abs(math.sin(psi))  # each cell along the track
         self.tables = disk_tables(profile, width)
         self.table_of_node = np.ascontiguousarray(self.tables.table_of_column)  # per node: width is (nx, ny)
-        self.zd = np.zeros((nx, ny))
-        self.sd = np.zeros((nx, ny))
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """(z_d, sigma) at the nodes at time t: (nx, ny) each [m]; a smooth disk gives zeros.
@@ -58,8 +56,8 @@ class Track:
         if self.smooth:
             return self.zero, self.zero
         tables = self.tables
+        zd, sd = np.empty(self.zero.shape), np.empty(self.zero.shape)  # new arrays: the caller keeps them
         fill_disk_heights(
-            tables.mean, tables.residual_rms, self.table_of_node, tables.spacing, self.s_nodes, self.speed * t,
-            self.zd, self.sd,
+            tables.mean, tables.residual_rms, self.table_of_node, tables.spacing, self.s_nodes, self.speed * t, zd, sd
         )  # fmt: skip
-        return self.zd.copy(), self.sd.copy()
+        return zd, sd

@@ -656,39 +656,84 @@ def fill_spacing(
             H[0, i, j] = max(h, floor) * inv_href
 
 
+@njit(inline=True)
+def link_spacings(
+    t_m: float, t_0: float, t_1: float, s_m: float, s_0: float, s_1: float, d0: float, d1: float, inv_href: float,
+    floor: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """One link's scaled spacings at its mid-point and its two nodes: max(t + s - z_d, floor) / h_ref, with t the
+    plane's height there (z - (x - xp) pitch - (y - yp) roll), s the link's surface and z_d the disk (the mean of
+    the two nodes' at the mid-point)."""
+    return (
+        max(t_m + s_m - 0.5 * (d1 + d0), floor) * inv_href,
+        max(t_0 + s_0 - d0, floor) * inv_href,
+        max(t_1 + s_1 - d1, floor) * inv_href,
+    )
+
+
+@njit(inline=True)
+def _x_links_of_row(
+    i: int, z: float, pitch: float, roll: float, x: np.ndarray, y: np.ndarray, pivot_x: float, pivot_y: float,
+    surface_xf: np.ndarray, surface_xe: np.ndarray, disk: np.ndarray, inv_href: float, floor: float, Hx: np.ndarray,
+    Hxe: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`fill_links` of the x-links i -> i + 1 (a branch-free loop over j: it vectorizes)."""
+    base_m = z - (0.5 * (x[i] + x[i + 1]) - pivot_x) * pitch
+    base_0 = z - (x[i] - pivot_x) * pitch
+    base_1 = z - (x[i + 1] - pivot_x) * pitch
+    for j in range(y.size):
+        by = (y[j] - pivot_y) * roll
+        Hx[0, i, j], Hxe[0, i, j], Hxe[1, i, j] = link_spacings(
+            base_m - by, base_0 - by, base_1 - by, surface_xf[0, i, j], surface_xe[0, i, j], surface_xe[1, i, j],
+            disk[0, i, j], disk[0, i + 1, j], inv_href, floor,
+        )  # fmt: skip
+
+
+@njit(inline=True)
+def _y_link(
+    i: int, j: int, base: float, roll: float, y: np.ndarray, pivot_y: float, surface_yf: np.ndarray,
+    surface_ye: np.ndarray, disk: np.ndarray, inv_href: float, floor: float, Hy: np.ndarray, Hye: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`fill_links` of the y-link (i, j) -> (i, j + 1); ``base`` = z - (x_i - xp) pitch."""
+    Hy[0, i, j], Hye[0, i, j], Hye[1, i, j] = link_spacings(
+        base - (0.5 * (y[j] + y[j + 1]) - pivot_y) * roll, base - (y[j] - pivot_y) * roll,
+        base - (y[j + 1] - pivot_y) * roll, surface_yf[0, i, j], surface_ye[0, i, j], surface_ye[1, i, j],
+        disk[0, i, j], disk[0, i, j + 1], inv_href, floor,
+    )  # fmt: skip
+
+
 @njit
 def fill_links(
     q: np.ndarray, x: np.ndarray, y: np.ndarray, pivot_x: float, pivot_y: float, surface_xf: np.ndarray,
     surface_yf: np.ndarray, surface_xe: np.ndarray, surface_ye: np.ndarray, disk: np.ndarray, inv_href: float,
-    floor: float, Hx: np.ndarray, Hy: np.ndarray, Hxe: np.ndarray, Hye: np.ndarray,
+    floor: float, Hx: np.ndarray, Hy: np.ndarray, Hxe: np.ndarray, Hye: np.ndarray, edges_only: bool = False,
 ) -> None:  # fmt: skip
     """The links' scaled spacings at attitude q over the node disk heights ``disk`` (1, nx, ny) [m].
 
     Hx (1, nx-1, ny) at each x-link's mid-point over the mean of its nodes' disk, Hxe (2, nx-1, ny) at its
     two nodes on the link's own surface (``surface_xe``) over each node's disk; Hy, Hye the same for the
     y-links.  Each value is :func:`fill_spacing`'s, max(z - (x - xp) pitch - (y - yp) roll + s - z_d, floor)
-    / h_ref, for all six arrays in one pass.
+    / h_ref, for all six arrays in one pass (:func:`link_spacings`).
+
+    ``edges_only``: only the links from the edge of the face (x-links i = 0 and nx - 2, y-links j = 0 and
+    ny - 2), the same values; the others are left as they were.  What the force's edge links read
+    (:func:`edge_corrections`) at the end of a time step, whose film step filled every link at mid-step.
     """
     z, pitch, roll = q[0], q[1], q[2]
     nx, ny = x.size, y.size
-    for i in range(nx - 1):  # separate branch-free loops: each vectorizes
-        base_m = z - (0.5 * (x[i] + x[i + 1]) - pivot_x) * pitch
-        base_0 = z - (x[i] - pivot_x) * pitch
-        base_1 = z - (x[i + 1] - pivot_x) * pitch
-        for j in range(ny):
-            by = (y[j] - pivot_y) * roll
-            d0, d1 = disk[0, i, j], disk[0, i + 1, j]
-            Hx[0, i, j] = max(base_m - by + surface_xf[0, i, j] - 0.5 * (d1 + d0), floor) * inv_href
-            Hxe[0, i, j] = max(base_0 - by + surface_xe[0, i, j] - d0, floor) * inv_href
-            Hxe[1, i, j] = max(base_1 - by + surface_xe[1, i, j] - d1, floor) * inv_href
+    for i in range(nx - 1):  # separate branch-free loops over j: each vectorizes
+        if edges_only and 0 < i < nx - 2:
+            continue
+        _x_links_of_row(i, z, pitch, roll, x, y, pivot_x, pivot_y, surface_xf, surface_xe, disk, inv_href, floor,
+                        Hx, Hxe)  # fmt: skip
     for i in range(nx):
         base = z - (x[i] - pivot_x) * pitch
-        for j in range(ny - 1):
-            d0, d1 = disk[0, i, j], disk[0, i, j + 1]
-            Hy[0, i, j] = max(base - (0.5 * (y[j] + y[j + 1]) - pivot_y) * roll + surface_yf[0, i, j]
-                              - 0.5 * (d1 + d0), floor) * inv_href  # fmt: skip
-            Hye[0, i, j] = max(base - (y[j] - pivot_y) * roll + surface_ye[0, i, j] - d0, floor) * inv_href
-            Hye[1, i, j] = max(base - (y[j + 1] - pivot_y) * roll + surface_ye[1, i, j] - d1, floor) * inv_href
+        if edges_only:
+            _y_link(i, 0, base, roll, y, pivot_y, surface_yf, surface_ye, disk, inv_href, floor, Hy, Hye)
+            _y_link(i, ny - 2, base, roll, y, pivot_y, surface_yf, surface_ye, disk, inv_href, floor, Hy, Hye)
+        else:
+            for j in range(ny - 1):
+                _y_link(i, j, base, roll, y, pivot_y, surface_yf, surface_ye, disk, inv_href, floor, Hy, Hye)
 
 
 @njit
@@ -792,6 +837,60 @@ def film_step(
     for i in range(1, nx - 1):
         for j in range(1, ny - 1):
             P[0, i, j] += buf.delta[0, i, j]
+
+
+@njit
+def film_advance(
+    q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
+    state: tuple, constants: tuple, scratch: tuple, cuts: tuple,
+) -> bool:  # fmt: skip
+    """One time step of the film, all of it in one call (:meth:`solver.abs.film.AbsFilm.step`): True if every
+    node pressure after it is positive (and so finite).
+
+    The spacings of the control volumes at both ends (:func:`fill_spacing`), the links' and the cut segments'
+    at mid-step over the mid-step disk (:func:`fill_links`, :func:`fill_cut_points`), the disk set to its end,
+    :func:`film_step` with ct = sigma / dt, and the spacings the force's link profiles read at the end attitude
+    (the cut segments and the links from the face's edge: :func:`link_corrections`).  The links inside the face
+    keep their mid-step spacings.
+
+    disk_old, disk_new (1, nx, ny) [m]; geometry : (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf,
+    surface_xe, surface_ye, inv_href, floor, x cut segments' (seg_x, seg_y, seg_surface), y cut segments' the
+    same); state : (P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, disk_mid), written.
+    """
+    (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
+     xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
+    P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, disk_mid = state
+    c = AbsFilmCuts(*cuts)
+    fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
+    fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
+    set_disk_mid(disk_old[0], disk_new[0], disk_mid, disk, disk_xf, disk_yf)
+    for end in range(2):  # the links at mid-step, then what the force reads at the end
+        q = 0.5 * (q_old + q_new) if end == 0 else q_new
+        fill_links(q, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href, floor,
+                   Hx, Hy, Hxe, Hye, end == 1)  # fmt: skip
+        fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xface, c.xowner, inv_href,
+                        floor, c.xH)  # fmt: skip
+        fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.yface, c.yowner, inv_href,
+                        floor, c.yH)  # fmt: skip
+        if end == 0:
+            set_disk(disk_new[0], disk, disk_xf, disk_yf)
+            film_step(P, H, H_new, Hx, Hy, Hxe, Hye, ct, constants, scratch, cuts)
+    for i in range(P.shape[1]):
+        for j in range(P.shape[2]):
+            if not P[0, i, j] > 0.0:
+                return False
+    return True
+
+
+@njit
+def film_forces_linked(
+    P: np.ndarray, area: np.ndarray, x: np.ndarray, y: np.ndarray, pivot_x: float, pivot_y: float, x_links: tuple,
+    y_links: tuple,
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`film_forces` plus :func:`link_corrections`, in one call [m2, m3, m3]."""
+    f, mp, mr = film_forces(P, area, x, y, pivot_x, pivot_y)
+    cf, cp, cr = link_corrections(P, x_links, y_links)
+    return f + cf, mp + cp, mr + cr
 
 
 @njit

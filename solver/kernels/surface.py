@@ -277,14 +277,35 @@ def fill_contact_pressures(
 ) -> None:
     """:func:`contact_pressure` at every cell into ``pc``, ``dpc``: one vectorized pass
     (:func:`gw_integrals_vectorizable`), then cell by cell where it does not apply (a smooth disk, t below
-    T_ASYMPTOTIC, nan).  The values of :func:`contact_pressure`, to round-off."""
-    for i in range(d.size):
+    T_ASYMPTOTIC, nan).  The values of :func:`contact_pressure`, to round-off.
+
+    The cells at t >= T_ZERO, where F_n is exactly 0 (most of a flying pad's candidates: 60 % on the default
+    scene), are set first and left out of the Chebyshev pass, which runs over the others gathered.
+    """
+    n = d.size
+    index = np.empty(n, dtype=np.int64)
+    ts = np.empty(n)
+    m = 0
+    for i in range(n):
         s = sigma[i] if sigma[i] > 0.0 else 1.0  # a smooth disk's cells are taken again below
         t = (d[i] - eps) / s
-        f32, f12 = gw_integrals_vectorizable(t if t >= T_ASYMPTOTIC else T_ASYMPTOTIC)  # nan too: redone below
         root = math.sqrt(s)
-        pc[i] = gw_coef * s * root * f32
-        dpc[i] = -1.5 * gw_coef * root * f12
+        pc[i] = gw_coef * s * root * 0.0  # F_n = 0 (the value the Chebyshev pass selects beyond T_ZERO)
+        dpc[i] = -1.5 * gw_coef * root * 0.0
+        if not t >= T_ZERO:  # nan too: redone below
+            index[m] = i
+            ts[m] = t
+            m += 1
+    f32s, f12s = np.empty(m), np.empty(m)
+    for k in range(m):
+        t = ts[k]
+        f32s[k], f12s[k] = gw_integrals_vectorizable(t if t >= T_ASYMPTOTIC else T_ASYMPTOTIC)
+    for k in range(m):
+        i = index[k]
+        s = sigma[i] if sigma[i] > 0.0 else 1.0
+        root = math.sqrt(s)
+        pc[i] = gw_coef * s * root * f32s[k]
+        dpc[i] = -1.5 * gw_coef * root * f12s[k]
     for i in range(d.size):
         if not (sigma[i] > 0.0 and (d[i] - eps) / sigma[i] >= T_ASYMPTOTIC):
             pc[i], dpc[i] = contact_pressure(d[i], sigma[i], eps, gw_coef)
@@ -978,3 +999,22 @@ def near_cells(
             index[count] = i
             count += 1
     return count
+
+
+@njit
+def candidate_cells(
+    surface: np.ndarray, disk: np.ndarray, sigma: np.ndarray, b: np.ndarray, area: np.ndarray, q: np.ndarray,
+    reach: float, reach_sigmas: float, margin: float, index: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`near_cells` and the cells' data in one call: (index, surface - disk, sigma, b (3, k), area) of them,
+    new arrays (``index`` (n,) int is scratch)."""
+    count = near_cells(surface, disk, sigma, b, q, reach, reach_sigmas, margin, index)
+    near = index[:count].copy()
+    base, s, bn, an = np.empty(count), np.empty(count), np.empty((3, count)), np.empty(count)
+    for k in range(count):
+        i = near[k]
+        base[k] = surface[i] - disk[i]
+        s[k] = sigma[i]
+        bn[0, k], bn[1, k], bn[2, k] = b[0, i], b[1, i], b[2, i]
+        an[k] = area[i]
+    return near, base, s, bn, an
