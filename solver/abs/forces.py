@@ -201,7 +201,7 @@ class SurfaceModel:
         zeta, m_inv, v, disk_rate = damping
         k_face = -(b * area) @ dpc @ b.T  # K_c = B k B^T
         omega2 = float(np.trace(m_inv @ k_face))
-        if zeta == 0.0 or omega2 <= 0.0:
+        if zeta == 0.0 or omega2 <= ksurf.CONTACT_OMEGA2_FLOOR:
             return np.zeros(pc.size), np.zeros((3, 3))
         scale = 2.0 * zeta / math.sqrt(omega2)
         rate = v @ b - disk_rate

@@ -152,6 +152,13 @@ CACHE_FILL = 1
 CACHE_USE = 2
 CACHE_REACH = 1.0e-3
 
+#: The contact damping's "no contact": omega_c^2 at or below this [1/s^2] (omega_c <= 1 rad/s, seven decades below
+#: the suspension's modes).  A cell at t = 38.4 in the Greenwood-Williamson tail has p_c = 0 and a subnormal
+#: stiffness (dp_c/dd = -1.3e-305 Pa/m); omega_c^2 = 6.5e-310 then overflowed 1 / (2 omega_c^2) (fastmath takes
+#: the division as a reciprocal), and 0 x inf made the Jacobian nan: a stuck pad bouncing off the disk at zeta 0.1
+#: failed there (studies/contact_damping.toml, track 4 at dt 0.05 us).
+CONTACT_OMEGA2_FLOOR = 1.0
+
 #: Adhesion law codes of the kernels (names in :data:`solver.surface.ADHESION_LAWS`).
 ADHESION_FLAT = 0
 ADHESION_ASPERITY = 1
@@ -913,7 +920,8 @@ def contact_damping(
                   - sum_Z A_i p_c,i' l_i b_i^T,
 
     with f_F the free cells' part of f_d, k_i' = dk_i/dd (:func:`contact_curvature`) and
-    u = d omega_c^2 / dq = sum_i A_i k_i' g_i b_i.  No contact (omega_c = 0): no force, a zero matrix.
+    u = d omega_c^2 / dq = sum_i A_i k_i' g_i b_i.  No contact (omega_c^2 <= CONTACT_OMEGA2_FLOOR): no force, a
+    zero matrix.
     """
     for r in range(3):
         for c in range(3):
@@ -937,7 +945,7 @@ def contact_damping(
         u0 += kg * b0
         u1 += kg * b1
         u2 += kg * b2
-    if omega2 <= 0.0:
+    if omega2 <= CONTACT_OMEGA2_FLOOR:
         return 0.0
     scale = 2.0 * zeta / math.sqrt(omega2)
     normal = 0.0
