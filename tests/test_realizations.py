@@ -88,6 +88,15 @@ def test_a_study_with_realizations_gives_means_intervals_query_and_error_bars(tm
     assert float(sigma_half) == pytest.approx(float(ds["bouncing_3sigma_ci95"][0]) * 1e9, rel=1e-1)
     png = save_figure(plot_dataset(ds), tmp_path / "real.png")
     assert png.stat().st_size > 10_000
+    # the force axis draws the cells' means in the unit its label names: uN for forces all below 0.1 mN
+    for factor, unit, scale in ((1e-9, "uN", 1e6), (1e9, "mN", 1e3)):
+        forces = ds["mean_contact_force_mean"] * 0.0 + factor * (1.0 + ds["pad_width"])
+        scaled = ds.assign(mean_contact_force_mean=forces)
+        axis = plot_dataset(scaled).axes[1]
+        assert f"[{unit}]" in axis.get_ylabel()
+        drawn = np.concatenate([bars.lines[0].get_ydata() for bars in axis.containers])  # the points, not the caps
+        want = scaled["mean_contact_force_mean"].values * scale
+        assert np.allclose(np.sort(drawn[np.isfinite(drawn)]), np.sort(want), rtol=1e-12, atol=0)
 
 
 def test_the_initial_kick_is_a_seeded_normal_draw_of_its_own():

@@ -78,10 +78,11 @@ def plot_study(ds: xr.Dataset) -> Figure:
     if x.dtype.kind in "OUS":  # a named axis (a model law): the cells side by side, named on the ticks
         names, x, scale_x = [str(v) for v in x], np.arange(x.size, dtype=float), 1.0
     stacked = ds.stack(line=rest) if rest else ds.expand_dims(line=[0])
+    force_scale, force_unit = _force_scale(ds["mean_contact_force"].values)
     for k in range(stacked.sizes["line"]):
         cell = stacked.isel(line=k)
         label = ", ".join(_cell_label(cell, ds, d) for d in rest) or None
-        for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", 1e3)):
+        for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", force_scale)):
             y = cell[name].values * scale
             half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
             (line, *_) = ax.errorbar(x * scale_x, y, yerr=half, fmt="o-", label=label, lw=1.2, capsize=3)
@@ -91,7 +92,7 @@ def plot_study(ds: xr.Dataset) -> Figure:
                     ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=offset, fontsize=7,
                                 color=line.get_color())  # fmt: skip
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
-    axes[1].set_ylabel("mean contact force [mN]")
+    axes[1].set_ylabel(f"mean contact force [{force_unit}]")
     decades = names is None and x.size > 1 and np.all(x > 0.0) and x.max() > 100.0 * x.min()
     for ax in axes:
         ax.set_xlabel(textwrap.fill(_short_name(ds[first], first) + ("" if names else f" [{xunit}]"), 60))
@@ -106,7 +107,7 @@ def plot_study(ds: xr.Dataset) -> Figure:
     force = force[np.isfinite(force) & (force > 0.0)]
     if force.size and force.max() > 100.0 * force.min():  # forces over decades: a log scale shows all of them
         axes[1].set_yscale("symlog", linthresh=10.0 ** np.floor(np.log10(max(force.min(), 1e-4 * force.max()))))
-        axes[1].set_ylabel("mean contact force [mN], log scale")
+        axes[1].set_ylabel(f"mean contact force [{force_unit}], log scale")
         axes[1].set_ylim(bottom=0.0)
     if rest:
         axes[1].legend(fontsize=8, frameon=False)
@@ -115,6 +116,12 @@ def plot_study(ds: xr.Dataset) -> Figure:
     samples = f"\nmean of {n_real} realisations, 95 % intervals" if n_real > 1 else ""
     fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{samples}{note}", fontsize=11)
     return fig
+
+
+def _force_scale(forces: np.ndarray) -> tuple[float, str]:
+    """(factor, unit) of a study's contact-force axis: mN, or uN where every cell's force is below 0.1 mN."""
+    finite = np.abs(forces[np.isfinite(forces)])
+    return (1e6, "uN") if finite.size and finite.max() < 1e-4 else (1e3, "mN")
 
 
 def _cell_label(cell: xr.Dataset, ds: xr.Dataset, dim: str) -> str:
