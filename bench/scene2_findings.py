@@ -45,7 +45,12 @@ def interval(x: np.ndarray) -> tuple[float, float]:
 
 
 def values(ds: xr.Dataset, name: str, **cell: float) -> np.ndarray:
-    """One cell's per-track values (realization order)."""
+    """One cell's per-track values (realization order); an error naming the axis if the cell is not on it."""
+    for dim, value in cell.items():
+        axis = ds[dim].values
+        if not np.any(np.isclose(axis, value, rtol=1e-6, atol=0.0)):
+            raise SystemExit(f"{ds.attrs.get('study', 'the study')}: {dim} = {value:g} is not on its axis "
+                             f"({', '.join(f'{v:g}' for v in axis)}); the finding needs that cell")  # fmt: skip
     return ds[name].sel(cell, method="nearest").values.ravel()
 
 
@@ -65,7 +70,7 @@ def sign(c: tuple[float, float]) -> int:
 
 def stuck(ds: xr.Dataset, **cell: float) -> tuple[int, int]:
     """Tracks of a cell classed stuck, and the tracks."""
-    flags = ds["regime"].sel(cell, method="nearest").values.ravel()
+    flags = values(ds, "regime", **cell)
     code = list(ds["regime"].attrs["flag_meanings"].split()).index("stuck")
     return int(np.count_nonzero(flags == ds["regime"].attrs["flag_values"][code])), flags.size
 
