@@ -99,6 +99,19 @@ def test_a_study_with_realizations_gives_means_intervals_query_and_error_bars(tm
         assert np.allclose(np.sort(drawn[np.isfinite(drawn)]), np.sort(want), rtol=1e-12, atol=0)
 
 
+def test_a_value_label_goes_to_the_side_away_from_the_other_lines():
+    """The top line at an x labels above its point, the bottom one below, a middle one by its parity; a lone line
+    (or one whose neighbours are nan there) above."""
+    from pipeline.figures.abs import _label_offset
+
+    column = np.array([0.50, 0.55, 0.40])
+    above, below = (4, 4), (4, -11)
+    assert _label_offset(column, 1) == above and _label_offset(column, 2) == below
+    assert _label_offset(column, 0) == above  # in the middle, even
+    assert _label_offset(np.array([0.5, 0.6, 0.4, 0.45]), 3) == below  # in the middle, odd
+    assert _label_offset(np.array([0.5]), 0) == above and _label_offset(np.array([0.5, np.nan]), 0) == above
+
+
 def test_the_initial_kick_is_a_seeded_normal_draw_of_its_own():
     """initial.zdot_spread: zdot + spread N(0, 1) per seed, reproducible, sample moments within their 99.9 % bounds
     over 4000 seeds; no spread gives zdot exactly."""

@@ -79,16 +79,19 @@ def plot_study(ds: xr.Dataset) -> Figure:
         names, x, scale_x = [str(v) for v in x], np.arange(x.size, dtype=float), 1.0
     stacked = ds.stack(line=rest) if rest else ds.expand_dims(line=[0])
     force_scale, force_unit = _force_scale(ds["mean_contact_force"].values)
-    for k in range(stacked.sizes["line"]):
+    lines = range(stacked.sizes["line"])
+    panels = ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", force_scale))
+    every = {name: np.array([stacked.isel(line=k)[name].values * scale for k in lines]) for _, name, scale in panels}
+    for k in lines:
         cell = stacked.isel(line=k)
         label = ", ".join(_cell_label(cell, ds, d) for d in rest) or None
-        for ax, name, scale in ((axes[0], "bouncing_3sigma", 1e9), (axes[1], "mean_contact_force", force_scale)):
-            y = cell[name].values * scale
+        for ax, name, scale in panels:
+            y = every[name][k]
             half = cell[f"{name}_ci95"].values * scale if n_real > 1 else None
             (line, *_) = ax.errorbar(x * scale_x, y, yerr=half, fmt="o-", label=label, lw=1.2, capsize=3)
-            offset = (4, 4) if k % 2 == 0 else (4, -11)  # alternate lines label above and below their points
-            for xi, yi in zip(x * scale_x, y, strict=True):  # the values, readable on either scale
+            for i, (xi, yi) in enumerate(zip(x * scale_x, y, strict=True)):  # the values, readable on either scale
                 if np.isfinite(yi):
+                    offset = _label_offset(every[name][:, i], k)  # away from the other lines where it can
                     ax.annotate(f"{yi:.3g}", (xi, yi), textcoords="offset points", xytext=offset, fontsize=7,
                                 color=line.get_color())  # fmt: skip
     axes[0].set_ylabel("3$\\sigma$ bouncing [nm]")
@@ -116,6 +119,18 @@ def plot_study(ds: xr.Dataset) -> Figure:
     samples = f"\nmean of {n_real} realisations, 95 % intervals" if n_real > 1 else ""
     fig.suptitle(f"{ds.attrs.get('title', ds.attrs.get('study', ''))}{samples}{note}", fontsize=11)
     return fig
+
+
+def _label_offset(column: np.ndarray, k: int) -> tuple[int, int]:
+    """Where line k labels its point among every line's values at that x (points): above it if it is the top one,
+    below it if it is the bottom one, else above for even k and below for odd k."""
+    others = np.delete(column, k)
+    others = others[np.isfinite(others)]
+    if others.size == 0 or column[k] >= others.max():
+        return (4, 4)
+    if column[k] <= others.min():
+        return (4, -11)
+    return (4, 4) if k % 2 == 0 else (4, -11)
 
 
 def _force_scale(forces: np.ndarray) -> tuple[float, str]:
