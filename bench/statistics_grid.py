@@ -26,6 +26,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import xarray as xr
 from scipy import stats
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,6 +38,8 @@ MEASURES = (
     ("mean_contact_force", 1e6, "uN"),
     ("contact_fraction", 100.0, "%"),
 )
+#: Measures that cannot be negative: their panels stop at zero.
+NON_NEGATIVE = ("mean_contact_force", "contact_fraction")
 
 
 def parse_range(text: str) -> list[int]:
@@ -130,7 +133,6 @@ def grouped(path: Path) -> dict[tuple[int, int], dict[int, dict]]:
 def dataset(path: Path):
     """The runs as an xarray Dataset: each measure on (grid, seed), NaN where a run is missing, and per grid
     the mean, the 95 % half-width and the paired difference to the finest grid with its half-width."""
-    import xarray as xr
 
     from pipeline.data.netcdf import var
     from pipeline.provenance import base_attrs
@@ -175,8 +177,9 @@ def dataset(path: Path):
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def figure(ds, path: Path) -> None:
-    """Each measure against the grid: the tracks (grey, joined by seed) and the mean with its 95 % interval."""
+def figure(ds, path: Path):
+    """Each measure against the grid: the tracks (grey, joined by seed) and the mean with its 95 % interval; the
+    figure (closed) is returned."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -197,10 +200,13 @@ def figure(ds, path: Path) -> None:
         ax.set_title(f"({letter})", loc="left")
         if name == "mean_contact_force":
             ax.set_yscale("symlog", linthresh=0.1)
+        if name in NON_NEGATIVE:  # a t-interval of a skewed sample can reach below zero: the axis stops at 0
+            ax.set_ylim(bottom=0.0)
     axes[0].legend(loc="best", fontsize=8)
     fig.suptitle("Scene 2: the default run against the grid (grey: one track, the same seed on every grid)")
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return fig
 
 
 def main() -> None:
@@ -211,7 +217,15 @@ def main() -> None:
     parser.add_argument("--report", action="store_true", help="only print the table of the runs in --out")
     parser.add_argument("--netcdf", type=Path, help="write the runs and their statistics to this netCDF file")
     parser.add_argument("--figure", type=Path, help="draw them into this PNG")
+    parser.add_argument("--redraw", type=Path, help="only draw --figure from this netCDF file (written by --netcdf)")
     args = parser.parse_args()
+    if args.redraw:
+        if not args.figure:
+            parser.error("--redraw needs --figure")
+        with xr.open_dataset(args.redraw) as ds:
+            figure(ds.load(), args.figure)
+        print(f"wrote {args.figure}")
+        return
     if not args.report:
         run(parse_grids(args.grids), parse_range(args.seeds), args.out)
     report(args.out)
