@@ -183,6 +183,50 @@ def test_film_step_derivatives_linearize_the_film_step():
             assert errors[-1] < 0.05, (k, errors)
 
 
+def test_secant_update_reproduces_two_passes_and_keeps_the_rest():
+    """numerics.film_update 'secant': after Broyden's update from two film passes along q_a and q_b = q_a + dq (the
+    same start and disk), K_f dq and S dq are the passes' differences in force and pressure, to round-off; along
+    directions orthogonal to dq in the corner metric W = B^T B nothing changes; and the updated K_f predicts a
+    third pass along q_a + 2 dq better than the refreshed one did (the secant holds the curvature along dq)."""
+    scene = chen_bogy(COARSE | {"disk.rms": 0.0, "initial.zdot": -0.002, "numerics.film_update": "secant"})
+    film = AbsFilm(scene)
+    steady = fly_start(scene, film)
+    stepper = AbsStepper(scene, film, Track(scene, film.grid), SurfaceModel(scene, film.grid), steady)
+    h = scene.numerics.dt
+    assert stepper.step(h) is None and stepper.jacobian_refreshes == 1
+    q, P0 = stepper.q.copy(), film.P.copy()
+    disk = np.zeros(film.shape)
+    q_a = q + h * stepper.v
+    B = stepper.corner_b
+    dq = np.array([40e-12, -0.2e-12 / (scene.slider.length - scene.slider.pivot_x), 0.1e-12 / scene.slider.width])
+
+    def advance(q_end):
+        film.P[:] = P0
+        film.step(q, q_end, disk, disk, h)
+        return film.forces(), film.P.copy()
+
+    f_a, P_a = advance(q_a)
+    f_b, P_b = advance(q_a + dq)
+    f_c, _ = advance(q_a + 2.0 * dq)
+    K0, S0 = stepper.film_K.copy(), stepper.film_dPdq.copy()
+    film.P[:] = P_b
+    stepper._secant_update(q_a, f_a, P_a, q_a + dq, f_b)
+    K, S = stepper.film_K, stepper.film_dPdq
+    assert stepper.secant_updates == 1
+    assert np.allclose(K @ dq, f_b - f_a, rtol=1e-9, atol=1e-12 * np.max(np.abs(f_b - f_a)))
+    dP = np.tensordot(dq, S, axes=1)
+    assert np.max(np.abs(dP - (P_b - P_a))) <= 1e-9 * np.max(np.abs(P_b - P_a))
+    W = B.T @ B
+    other = np.cross(W @ dq, np.array([0.3, 1.0, -0.7]))  # orthogonal to dq in W: (W dq) . other = 0
+    assert abs(other @ W @ dq) <= 1e-12 * np.linalg.norm(W @ dq) * np.linalg.norm(other)
+    assert np.allclose(K @ other, K0 @ other, rtol=1e-12, atol=1e-15 * np.max(np.abs(K0 @ other)))
+    assert np.allclose(np.tensordot(other, S, axes=1), np.tensordot(other, S0, axes=1), rtol=1e-12, atol=1e-12)
+    # the third pass, 2 dq from the first: the secant's prediction is closer than the refreshed derivatives'
+    err_new = np.max(np.abs(f_a + K @ (2.0 * dq) - f_c))
+    err_old = np.max(np.abs(f_a + K0 @ (2.0 * dq) - f_c))
+    assert err_new < err_old, (err_new, err_old)
+
+
 def test_a_film_stiffer_than_film_omega_dt_splits_steps_into_the_finer_run():
     """numerics.film_omega_dt: where omega_f dt exceeds it (omega_f^2 the largest |eigenvalue| of M^-1 K_f), the step
     is split like a contact's, and the run is the run at the finer step.

@@ -100,6 +100,16 @@ the default face's 728-kHz mode has omega_f h = 1.01-1.06, and the 80-um trailin
 0.96 at dt 0.1 us), where its pitch mode grew from the first microseconds and flew the pad off at tens of nm;
 refreshed every step it ran through (README, "A step the film can follow").
 
+``numerics.film_update = "secant"`` keeps the derivatives fresh without refreshing them: each re-pass of the film
+(the corrected attitude moved a corner more than ``numerics.film_repass`` from the predicted path) gives two film
+steps from the same start and disk along paths dq apart, and Broyden's rank-one update makes S and K_f reproduce
+their difference exactly (metric: the corner spacings), leaving them unchanged across dq.  The re-passes come
+where the derivatives are most wrong, so the update costs no film step of its own.  Each step size then keeps its
+own derivatives (a contact's substeps and the steps between them do not refresh on every change of size), refreshed
+after ``film_jacobian_every`` substeps of that size or ``film_jacobian_every`` dt of time.  At dt 0.2 us with
+``film_repass`` 0.02 nm this runs the 80-um pad through sustained contact, which stale derivatives threw off the
+disk at tens to hundreds of nanometres (README, "A step the film can follow").
+
 The surface stiffness (asperities: 1e7-1e9 N/m) is far above the film's,
 and the implicit treatment keeps the step stable with dt set by the film
 and the disk's features, not by the contact.
@@ -151,6 +161,8 @@ PREDICTOR_TOL = 1e-6
 LINEARIZED_PASSES = 3
 #: Largest spacing change [m] of the face's corners by which the film step is probed for its derivatives.
 FILM_PROBE = 1.0e-12
+#: A secant update needs passes whose paths differ by more than this many FILM_PROBE at the corners (in the metric).
+SECANT_SMALLEST = 1.0
 #: Samples this close [s] before the settling time count as after it (output times are multiples of dt).
 SETTLE_SLACK = 1e-15
 
@@ -194,6 +206,12 @@ class AbsStepper:
         self.linearized = self.use_air and num.film_coupling == "linearized"
         self.repass_gap = num.film_repass if self.linearized else 0.0
         self.jacobian_every = num.film_jacobian_every
+        self.secant = self.linearized and num.film_update == "secant"
+        self.secant_updates = 0
+        # with the secant update, each step size keeps its own derivatives (a contact's substeps and the step
+        # between them do not refresh on every change of size): h -> [K_f, S, age, omega_f, time of refresh]
+        self._sizes: dict[float, list] = {}
+        self.size_memory = num.film_jacobian_every * num.dt  # a size's derivatives are refreshed after this [s]
         self.film_omega = 0.0  # omega_f [rad/s]: sqrt of the largest |eigenvalue| of M^-1 K_f at the last refresh
         self.film_K = np.zeros((3, 3))
         self.film_dPdq = np.zeros((3, *film.P.shape))
@@ -270,7 +288,8 @@ class AbsStepper:
         self.set_rho(rho)
         self.film.P[:] = P
         self.film.set_disk(self.zd)
-        self.jacobian_h = 0.0
+        if not self.secant:  # (with the secant update the sizes keep their derivatives: _use_size)
+            self.jacobian_h = 0.0
         self.f_prev = None
 
     def contact_omega(self) -> float:
@@ -293,6 +312,8 @@ class AbsStepper:
         t1 = self.t + h
         zd1, sd1 = self.track.at(t1)
         P_saved = film.P.copy()
+        if self.secant:
+            self._use_size(h)
 
         def fail(message: str) -> str:
             if depth >= MAX_HALVINGS:
@@ -324,13 +345,20 @@ class AbsStepper:
                 q_path = q + h * v + 0.5 * h * h * a + self.beta * h * h * (a_new - a)
                 self.predictions += 1
         passes = LINEARIZED_PASSES if self.linearized else 2
+        last_pass = None  # (q_path, f_path, P) of the pass before, for the secant update
+        q_passed, f_path = q_path, None
         for film_pass in range(passes):
             if film_pass:
                 self.film_repasses += 1
+                if self.secant:  # the film as the last pass left it (its linear correction was not applied)
+                    last_pass = (q_passed, f_path, film.P.copy())
                 film.P[:] = P_saved
             f_path = self._film_step(q_path, zd1, h)
             if f_path is None or (self.linearized and not self._film_jacobian(P_saved, q_path, zd1, h, f_path)):
                 return fail("film failed (pressure not positive and finite)")
+            if last_pass is not None:
+                self._secant_update(*last_pass, q_path, f_path)
+            q_passed = q_path
             solved = self._newton(h, cells, a_new, f_path, q_path, f_old)
             if solved is None:
                 return fail(f"Newton did not converge (|G| = {self.residual:.2e})")
@@ -436,7 +464,44 @@ class AbsStepper:
         if not np.all(np.isfinite(self.film_K)):
             return False
         self.film_omega = math.sqrt(float(np.max(np.abs(np.linalg.eigvals(self.m_inv @ self.film_K)))))
+        if self.secant:
+            self._sizes[h] = [self.film_K, self.film_dPdq, 0, self.film_omega, self.t]
         return True
+
+    def _use_size(self, h: float) -> None:
+        """Make the derivatives of step size h the film's (numerics.film_update 'secant'): those kept for h if they
+        were refreshed less than ``size_memory`` ago, else new arrays that :meth:`_film_jacobian` refreshes."""
+        if h == self.jacobian_h:
+            return
+        if self.jacobian_h in self._sizes:
+            self._sizes[self.jacobian_h][2] = self.jacobian_age
+        entry = self._sizes.get(h)
+        if entry is not None and self.t - entry[4] <= self.size_memory:
+            self.film_K, self.film_dPdq, self.jacobian_age, self.film_omega, _ = entry
+        else:
+            self._sizes.pop(h, None)
+            self.film_K, self.film_dPdq = np.zeros((3, 3)), np.zeros_like(self.film_dPdq)
+            self.jacobian_age = self.jacobian_every  # due
+        self.jacobian_h = h
+
+    def _secant_update(self, q_a: np.ndarray, f_a: np.ndarray, P_a: np.ndarray, q_b: np.ndarray,
+                       f_b: np.ndarray) -> None:  # fmt: skip
+        """Broyden's rank-one update of the film step's derivatives from two passes of one step (numerics.film_update
+        'secant'): the film advanced from the same start along q_a and along q_b (``film.P``), with forces f_a, f_b.
+
+        With dq = q_b - q_a, in the metric W = B^T B of the face's corner spacings (B = ``corner_b``, so that
+        pitch and roll weigh by the spacing they move), S += (dP - S dq) (W dq)^T / (dq^T W dq) and K_f the same
+        with df: afterwards both reproduce the two passes' difference exactly, and are unchanged across dq.  The
+        same step's disk and start, so the difference is the film's response to the attitude alone.
+        """
+        dq = q_b - q_a
+        w = self.corner_b.T @ (self.corner_b @ dq)
+        denom = float(dq @ w)
+        if not denom > (SECANT_SMALLEST * FILM_PROBE) ** 2:
+            return
+        self.film_K += np.outer(f_b - f_a - self.film_K @ dq, w / denom)
+        kfilm.secant_update(self.film_dPdq, self.film.P, P_a, dq, w / denom)
+        self.secant_updates += 1
 
     def _path_gap(self, dq: np.ndarray) -> float:
         """Largest change of the spacing over the face's corners [m] made by the attitude change dq."""
@@ -711,6 +776,7 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         "reynolds_solves": film.reynolds_solves,
         "film_repasses": stepper.film_repasses,
         "film_jacobians": stepper.jacobian_refreshes,
+        "film_secant_updates": stepper.secant_updates,
         "contact_substeps": stepper.contact_substeps,
         "contact_redos": stepper.contact_redos,
         "contact_damped": stepper.damped_substeps,

@@ -347,6 +347,7 @@ class AbsModels(Section):
 FILM_COUPLINGS = ("two_pass", "linearized")
 #: How a linearized step predicts the attitude path of its film step (numerics.film_predictor).
 FILM_PREDICTORS = ("extrapolated", "linear_model", "tangent")
+FILM_UPDATES = ("none", "secant")
 
 
 @dataclass(frozen=True)
@@ -444,6 +445,14 @@ class AbsNumerics(Section):
     )
     film_jacobian_every: int = quantity(
         50, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
+    )
+    film_update: str = quantity(
+        "none",
+        "",
+        "film_coupling 'linearized': between refreshes, 'secant' corrects the film step's derivatives (S, K_f) by "
+        "a rank-one (Broyden) update along the path change of each re-pass (numerics.film_repass), from the two "
+        "passes' pressures and forces; 'none' keeps them as refreshed",
+        choices=FILM_UPDATES,
     )
     film_repass: float = quantity(
         1.0e-10,

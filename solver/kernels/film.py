@@ -783,6 +783,19 @@ def set_disk_mid(old: np.ndarray, new: np.ndarray, mid: np.ndarray, disk: np.nda
 
 
 @njit
+def secant_update(S: np.ndarray, P_b: np.ndarray, P_a: np.ndarray, dq: np.ndarray, w: np.ndarray) -> None:
+    """S[k] += (P_b - P_a - sum_m dq_m S[m]) w_k in place: Broyden's rank-one update of the film step's derivatives
+    S (3, 1, nx, ny) from two passes P_a, P_b (1, nx, ny) whose paths differ by dq, w = W dq / (dq^T W dq)."""
+    nx, ny = P_b.shape[1], P_b.shape[2]
+    for i in range(nx):
+        for j in range(ny):
+            r = P_b[0, i, j] - P_a[0, i, j] - (dq[0] * S[0, 0, i, j] + dq[1] * S[1, 0, i, j] + dq[2] * S[2, 0, i, j])
+            S[0, 0, i, j] += r * w[0]
+            S[1, 0, i, j] += r * w[1]
+            S[2, 0, i, j] += r * w[2]
+
+
+@njit
 def add_linear(P: np.ndarray, S: np.ndarray, dq: np.ndarray) -> bool:
     """P += sum_k dq_k S[k] in place if every result stays positive (True); otherwise P is left as it was (False).
 
