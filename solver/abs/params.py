@@ -451,7 +451,8 @@ class AbsNumerics(Section):
         "",
         "film_coupling 'linearized': between refreshes, 'secant' corrects the film step's derivatives (S, K_f) by "
         "a rank-one (Broyden) update along the path change of each re-pass (numerics.film_repass), from the two "
-        "passes' pressures and forces; 'none' keeps them as refreshed",
+        "passes' pressures and forces, and keeps them per step size (refreshed after film_jacobian_every substeps "
+        "of a size or film_jacobian_every dt); 'none' keeps them as refreshed, for the current size only",
         choices=FILM_UPDATES,
     )
     film_repass: float = quantity(
