@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +12,8 @@ from conftest import SCENE2_FILE, cf_errors
 from pipeline.bench.rails import cost_at_error, observed_orders
 from pipeline.cli import main
 from pipeline.data.netcdf import open_result
+
+RESULTS_DIR = Path(__file__).resolve().parents[1] / "results"
 
 
 @pytest.mark.parametrize("order", [1.0, 2.0, 2.7])
@@ -109,3 +112,16 @@ def test_every_scene2_setting_loads_with_samples_on_its_own_step():
         assert num.dt == pytest.approx(load_scene(str(SCENE2_FILE)).numerics.dt * factor, rel=1e-12), name
         assert abs(num.output_interval / num.dt - round(num.output_interval / num.dt)) < 1e-9, name
         assert abs(num.output_interval - 0.5e-6) <= 0.5 * num.dt, name
+
+
+def test_scene2_bench_figure_keeps_the_contact_force_panel_above_zero():
+    """The stored bench's contact-force intervals reach below zero (a few tracks touch hard): the panel stops at 0,
+    the bouncing panel keeps its data's range."""
+    from pipeline.figures.bench import plot_scene2_bench
+
+    ds = open_result(RESULTS_DIR / "bench_scene2.nc")
+    lower = ds["mean_contact_force_mean"] - ds["mean_contact_force_ci"]
+    assert float(lower.min()) < 0.0  # the case the rule is for
+    fig = plot_scene2_bench(ds)
+    assert fig.axes[2].get_ylim()[0] == 0.0
+    assert fig.axes[1].get_ylim()[0] > 0.3  # the 3-sigma panel: zoomed on 0.4-0.7 nm
