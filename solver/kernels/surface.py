@@ -642,10 +642,9 @@ def _near_wall_at(
 
 
 @njit
-def fill_flat_adhesion(
-    offset: np.ndarray, sigma: np.ndarray, b: np.ndarray, q: np.ndarray, eps: float, adh_coef: float, cache: tuple
-) -> None:
-    """The flat law's adhesion with its curvature at every cell, into ``cache`` = (d, p_a, p_a', p_a'').
+def fill_flat_adhesion(d_cells: np.ndarray, sigma: np.ndarray, eps: float, adh_coef: float, cache: tuple) -> None:
+    """The flat law's adhesion with its curvature at every cell (separations ``d_cells``), into ``cache`` = (d, p_a,
+    p_a', p_a'').
 
     One pass of :func:`flat_adhesion_far` over all cells (it vectorizes); the cells near the wall again by
     :func:`near_wall_expectations` (it vectorizes too: a pad held on the disk has every cell there), the rest
@@ -653,15 +652,14 @@ def fill_flat_adhesion(
     :func:`adhesion_with_curvature` cell by cell, to round-off.
     """
     cache_d, cache_p, cache_dp, cache_d2p = cache
-    q0, q1, q2 = q[0], q[1], q[2]
-    for i in range(offset.size):
-        d = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
+    for i in range(d_cells.size):
+        d = d_cells[i]
         cache_d[i] = d
         s = sigma[i] if sigma[i] > 0.0 else eps  # a smooth disk's cells are taken again below
         cache_p[i], cache_dp[i], cache_d2p[i] = flat_adhesion_far(d, s, eps, adh_coef)
-    near = np.empty(offset.size, dtype=np.int64)
+    near = np.empty(d_cells.size, dtype=np.int64)
     n_near = 0
-    for i in range(offset.size):
+    for i in range(d_cells.size):
         d, s = cache_d[i], sigma[i]
         if s <= 0.0 or (d - eps) / s < N_SIGMA or d - N_SIGMA * s > LJ_RANGE * eps:
             if s > 0.0 and (d - eps) / s >= TAU_NO_ADHESION and d - N_SIGMA * s <= LJ_RANGE * eps:
@@ -703,16 +701,10 @@ def asperity_adhesion_far(d: float, sigma: float, eps: float, adh_coef: float) -
 
 @njit
 def fill_asperity_adhesion(
-    offset: np.ndarray,
-    sigma: np.ndarray,
-    b: np.ndarray,
-    q: np.ndarray,
-    eps: float,
-    adh_coef: float,
-    summit_coef: float,
-    cache: tuple,
+    d_cells: np.ndarray, sigma: np.ndarray, eps: float, adh_coef: float, summit_coef: float, cache: tuple
 ) -> None:
-    """The asperity law's adhesion with its curvature at every cell, into ``cache`` = (d, p_a, p_a', p_a'').
+    """The asperity law's adhesion with its curvature at every cell (separations ``d_cells``), into ``cache`` =
+    (d, p_a, p_a', p_a'').
 
     As :func:`fill_flat_adhesion`: one vectorized Gauss-Hermite pass (:func:`asperity_adhesion_far`), the cells
     near the wall again by :func:`near_wall_expectations`, a smooth disk's and the fully compressed cells by
@@ -720,12 +712,11 @@ def fill_asperity_adhesion(
     :func:`adhesion_with_curvature` cell by cell, to round-off.
     """
     cache_d, cache_p, cache_dp, cache_d2p = cache
-    n = offset.size
+    n = d_cells.size
     dgamma = 0.375 * adh_coef * eps
-    q0, q1, q2 = q[0], q[1], q[2]
     work = np.empty(n)
     for i in range(n):
-        d = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
+        d = d_cells[i]
         cache_d[i] = d
         s = sigma[i] if sigma[i] > 0.0 else eps  # a smooth disk's cells are taken again below
         cache_dp[i], cache_d2p[i], work[i] = asperity_adhesion_far(d, s, eps, adh_coef)
@@ -752,6 +743,49 @@ def fill_asperity_adhesion(
         compressed = 0.5 * math.erfc(tau * _INV_SQRT2)
         cache_p[i] = summit_coef * (out[2, k] - dgamma * compressed)
         cache_dp[i], cache_d2p[i] = -summit_coef * out[0, k], -summit_coef * out[1, k]
+
+
+@njit
+def fill_adhesion(
+    d_cells: np.ndarray, sigma: np.ndarray, eps: float, adh_coef: float, law: int, summit_coef: float, cache: tuple
+) -> None:
+    """:func:`fill_flat_adhesion` or :func:`fill_asperity_adhesion` by the law code."""
+    if law == ADHESION_ASPERITY:
+        fill_asperity_adhesion(d_cells, sigma, eps, adh_coef, summit_coef, cache)
+    else:
+        fill_flat_adhesion(d_cells, sigma, eps, adh_coef, cache)
+
+
+@njit
+def refresh_adhesion(
+    d_cells: np.ndarray, sigma: np.ndarray, eps: float, adh_coef: float, law: int, summit_coef: float, cache: tuple
+) -> int:
+    """Evaluate again, in one vectorized :func:`fill_adhesion` pass, the cached cells whose separation moved by more
+    than CACHE_REACH max(sigma_i, eps) from the kept one (or is not finite); returns their number.
+
+    A Newton iterate moves many cells at once past that reach (at the default scene's step, about a third of a
+    step's solves): taken cell by cell by :func:`adhesion_with_curvature` they cost two to six times the
+    vectorized pass, whose values equal it to round-off (``tests/test_adhesion.py``).
+    """
+    cache_d, cache_p, cache_dp, cache_d2p = cache
+    n = d_cells.size
+    stale = np.empty(n, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if not abs(d_cells[i] - cache_d[i]) <= CACHE_REACH * max(sigma[i], eps):
+            stale[m] = i
+            m += 1
+    if m == 0:
+        return 0
+    d_sub, s_sub = np.empty(m), np.empty(m)
+    for k in range(m):
+        d_sub[k], s_sub[k] = d_cells[stale[k]], sigma[stale[k]]
+    sub = (np.empty(m), np.empty(m), np.empty(m), np.empty(m))
+    fill_adhesion(d_sub, s_sub, eps, adh_coef, law, summit_coef, sub)
+    for k in range(m):
+        i = stale[k]
+        cache_d[i], cache_p[i], cache_dp[i], cache_d2p[i] = sub[0][k], sub[1][k], sub[2][k], sub[3][k]
+    return m
 
 
 @njit
@@ -791,28 +825,26 @@ def generalized_forces(
     ``cache`` = (d, p_a, p_a', p_a'') (k,) each, with ``mode``: CACHE_FILL evaluates the adhesion with its
     curvature (:func:`adhesion_with_curvature`) and keeps it; CACHE_USE takes p_a and p_a' of a cell whose
     separation moved by at most CACHE_REACH max(sigma_i, eps) from the kept one from their Taylor expansion
-    (relative error below CACHE_REACH^3 / 6 of the pressure's own scale; others are evaluated and kept again);
-    CACHE_OFF evaluates every cell.  The iterations of one implicit step move a cell by far less than that:
-    the adhesion quadrature, most of the cost, is then paid once per step.
+    (relative error below CACHE_REACH^3 / 6 of the pressure's own scale); the others are evaluated again, all in
+    one vectorized pass (:func:`refresh_adhesion`), and kept.  CACHE_OFF evaluates every cell cell by cell.  The
+    adhesion quadrature, most of the cost, is then paid about once per step.
     """
     cache_d, cache_p, cache_dp, cache_d2p = cache
-    if mode == CACHE_FILL and adhesion_law == ADHESION_FLAT:
-        fill_flat_adhesion(offset, sigma, b, q, eps, adh_coef, cache)
-        mode = CACHE_USE  # the cache now holds every cell at this q: the loop below reads it
-    elif mode == CACHE_FILL and adhesion_law == ADHESION_ASPERITY:
-        fill_asperity_adhesion(offset, sigma, b, q, eps, adh_coef, summit_coef, cache)
-        mode = CACHE_USE  # the cache now holds every cell at this q: the loop below reads it
+    q0, q1, q2 = q[0], q[1], q[2]
+    n = offset.size
+    seps, pcs, dpcs = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        seps[i] = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
+    if mode == CACHE_FILL:
+        fill_adhesion(seps, sigma, eps, adh_coef, adhesion_law, summit_coef, cache)
+    elif mode == CACHE_USE:
+        refresh_adhesion(seps, sigma, eps, adh_coef, adhesion_law, summit_coef, cache)
     f0 = f1 = f2 = 0.0  # scalar accumulators: f, the upper triangle of the symmetric part, the friction row
     j00 = j01 = j02 = j11 = j12 = j22 = 0.0
     w0 = w1 = w2 = 0.0
     contact = 0.0
     adhesion = 0.0
     in_reach = 0
-    q0, q1, q2 = q[0], q[1], q[2]
-    n = offset.size
-    seps, pcs, dpcs = np.empty(n), np.empty(n), np.empty(n)
-    for i in range(n):
-        seps[i] = offset[i] + b[0, i] * q0 + b[1, i] * q1 + b[2, i] * q2
     fill_contact_pressures(seps, sigma, eps, gw_coef, pcs, dpcs)  # vectorized: the loop below has branches
     for i in range(n):
         b0, b1, b2 = b[0, i], b[1, i], b[2, i]
@@ -821,14 +853,10 @@ def generalized_forces(
         pc, dpc = pcs[i], dpcs[i]
         if mode == CACHE_OFF:
             pa, dpa = adhesion_by_law(d, s, eps, adh_coef, adhesion_law, summit_coef)
-        else:
+        else:  # every cell within reach of its kept values (filled or refreshed above): their Taylor expansion
             delta = d - cache_d[i]
-            if mode == CACHE_USE and abs(delta) <= CACHE_REACH * max(s, eps):
-                dpa = cache_dp[i] + delta * cache_d2p[i]
-                pa = cache_p[i] + delta * (cache_dp[i] + 0.5 * delta * cache_d2p[i])
-            else:
-                pa, dpa, d2pa = adhesion_with_curvature(d, s, eps, adh_coef, adhesion_law, summit_coef)
-                cache_d[i], cache_p[i], cache_dp[i], cache_d2p[i] = d, pa, dpa, d2pa
+            dpa = cache_dp[i] + delta * cache_d2p[i]
+            pa = cache_p[i] + delta * (cache_dp[i] + 0.5 * delta * cache_d2p[i])
         fc = pc * area[i]
         fa = pa * area[i]
         w = dpc * area[i]
