@@ -107,7 +107,8 @@ class AbsFilm:
             xtheta=cx.seg_theta, xH=np.zeros((3, cx.seg_theta.size)), yface=cy.face, ypiece_ptr=cy.piece_ptr,
             yweight=cy.piece_weight, yseg_ptr=cy.seg_ptr, ytheta=cy.seg_theta, yH=np.zeros((3, cy.seg_theta.size)),
             xowner=self._owner[0], xcoef=np.zeros((6, cx.seg_theta.size)), yowner=self._owner[1],
-            ycoef=np.zeros((6, cy.seg_theta.size)),
+            ycoef=np.zeros((6, cy.seg_theta.size)), xcell=kf.segment_cells(cx.face, cx.owner, ny),
+            ycell=kf.segment_cells(cy.face, cy.owner, ny - 1),
         )  # fmt: skip
         # the force's link corrections get coefficient scratch of their own (the step's are read after it)
         self._coef = (np.zeros((6, cx.seg_theta.size)), np.zeros((6, cy.seg_theta.size)))
@@ -139,10 +140,10 @@ class AbsFilm:
         g = self.grid
         kf.fill_links(q, g.x, g.y, *self.pivot, self.surface_xf, self.surface_yf, g.surface_xe, g.surface_ye,
                       self.disk, self.inv_href, self.floor, self.Hx, self.Hy, self.Hxe, self.Hye)  # fmt: skip
-        for cuts, disk, owner, H in ((g.cuts_x, self.disk_xf, self._owner[0], self.cuts.xH),
-                                     (g.cuts_y, self.disk_yf, self._owner[1], self.cuts.yH)):  # fmt: skip
-            kf.fill_cut_points(q, cuts.seg_x, cuts.seg_y, *self.pivot, cuts.seg_surface, disk, cuts.face, owner,
-                               self.inv_href, self.floor, H)  # fmt: skip
+        for cuts, disk, cell, H in ((g.cuts_x, self.disk_xf, self.cuts.xcell, self.cuts.xH),
+                                    (g.cuts_y, self.disk_yf, self.cuts.ycell, self.cuts.yH)):  # fmt: skip
+            kf.fill_cut_points(q, cuts.seg_x, cuts.seg_y, *self.pivot, cuts.seg_surface, disk, cell, self.inv_href,
+                               self.floor, H)  # fmt: skip
 
     def fill_nodes(self, q: np.ndarray, out: np.ndarray) -> None:
         """Scaled spacing of each control volume's mean surface (what its squeeze term stores)."""

@@ -230,7 +230,8 @@ class AbsFilmCuts(NamedTuple):
     piece_ptr (n + 1,) into the pieces, weight (m,) their shares of the strip; seg_ptr (m + 1,) into
     the segments, theta (k,) their shares of the link, H (3, k) their scaled spacings at mid-point and
     ends (set per step); then owner (k,) each segment's link (index into face) and coef (6, k), the
-    segments' coefficients (:func:`segment_coefficients`, scratch).
+    segments' coefficients (:func:`segment_coefficients`, scratch); xcell, ycell (k,) each segment's link as a
+    flat index into the link arrays (:func:`segment_cells`).
     """
 
     xface: np.ndarray
@@ -249,6 +250,8 @@ class AbsFilmCuts(NamedTuple):
     xcoef: np.ndarray
     yowner: np.ndarray
     ycoef: np.ndarray
+    xcell: np.ndarray
+    ycell: np.ndarray
 
 
 @njit
@@ -739,20 +742,26 @@ def fill_links(
 @njit
 def fill_cut_points(
     q: np.ndarray, seg_x: np.ndarray, seg_y: np.ndarray, pivot_x: float, pivot_y: float, seg_surface: np.ndarray,
-    disk_f: np.ndarray, face: np.ndarray, owner: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
+    disk_f: np.ndarray, cell: np.ndarray, inv_href: float, floor: float, H: np.ndarray,
 ) -> None:  # fmt: skip
     """H = max(z - (x - xp) pitch - (y - yp) roll + surface - z_d, floor) / h_ref at the cut segments' points.
 
     seg_x, seg_y, seg_surface and H (3, k): each segment's mid-point and both ends; the disk height z_d of
-    segment k is that of its link face[owner[k]] in ``disk_f`` (1, n1, n2) [m].
+    segment k is that of its link, ``disk_f`` (1, n1, n2) [m] (C-contiguous) at the flat index ``cell[k]``
+    (:func:`segment_cells`: one gather instead of two).
     """
     z, pitch, roll = q[0], q[1], q[2]
+    flat = disk_f.reshape(disk_f.size)
     for r in range(3):
         for k in range(seg_x.shape[1]):
-            n = owner[k]
             h = (z - (seg_x[r, k] - pivot_x) * pitch - (seg_y[r, k] - pivot_y) * roll + seg_surface[r, k]
-                 - disk_f[0, face[n, 0], face[n, 1]])  # fmt: skip
+                 - flat[cell[k]])  # fmt: skip
             H[r, k] = max(h, floor) * inv_href
+
+
+def segment_cells(face: np.ndarray, owner: np.ndarray, n2: int) -> np.ndarray:
+    """Each cut segment's link as a flat index into a (1, n1, n2) link array: face[owner] (i, j) -> i n2 + j."""
+    return np.ascontiguousarray(face[owner, 0] * n2 + face[owner, 1], dtype=np.int64)
 
 
 @njit
@@ -881,10 +890,8 @@ def film_advance(
         q = 0.5 * (q_old + q_new) if end == 0 else q_new
         fill_links(q, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href, floor,
                    Hx, Hy, Hxe, Hye, end == 1)  # fmt: skip
-        fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xface, c.xowner, inv_href,
-                        floor, c.xH)  # fmt: skip
-        fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.yface, c.yowner, inv_href,
-                        floor, c.yH)  # fmt: skip
+        fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
+        fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
         if end == 0:
             set_disk(disk_new[0], disk, disk_xf, disk_yf)
             film_step(P, H, H_new, Hx, Hy, Hxe, Hye, ct, constants, scratch, cuts)
