@@ -61,6 +61,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
     from .config import load_scene
 
     scene = load_scene(args.scene, args.overrides)
+    _compile_for(scene)
     if args.ladder is not None:
         if args.modes:
             raise ValueError("--ladder and --modes: give one of them (the modes are of one grid's flight)")
@@ -94,8 +95,19 @@ def ladder_scene(scene, grids: str = "default", output: Path | None = None, plot
 def cmd_simulate(args: argparse.Namespace) -> int:
     from .config import load_scene
 
-    simulate_scene(load_scene(args.scene, args.overrides), args.output, args.plot)
+    scene = load_scene(args.scene, args.overrides)
+    _compile_for(scene)
+    simulate_scene(scene, args.output, args.plot)
     return 0
+
+
+def _compile_for(scene) -> None:
+    """The kernels of the scene's kind compiled in a child process first (:func:`pipeline.run.runner.compile_kernels`),
+    so that this command runs the code a study's workers run, to the last bit."""
+    from .kinds import adapter_of
+    from .run.runner import compile_kernels
+
+    compile_kernels((adapter_of(scene).name,))
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -285,7 +297,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from .config import load_scene
     from .kinds import adapter_of
 
-    adapter = adapter_of(load_scene(args.scene))
+    scene = load_scene(args.scene)
+    adapter = adapter_of(scene)
     if adapter.bench is None:
         raise ValueError(f"{args.scene}: scene kind {adapter.name!r} has no benchmark")
+    _compile_for(scene)
     return adapter.bench(args)

@@ -15,7 +15,10 @@ the sign of zero, but not reassociation: with ``reassoc`` a kernel compiled
 in this process and the same kernel loaded from numba's cache gave results
 differing in the last bits (measured), so a study's dataset would depend on
 which worker had compiled its kernels.  Without it, runs are bitwise
-reproducible across processes, at no measured cost.
+reproducible across processes that load the kernels from the cache, at no
+measured cost; a process that compiled them itself still differs in the last
+bits, so the pipeline compiles them in a child process first
+(:func:`compile_apart`).
 """
 
 from __future__ import annotations
@@ -62,8 +65,51 @@ def _use_fingerprinted_cache(numba: Any) -> None:
     sources makes any edit recompile everything.  NUMBA_CACHE_DIR, when set,
     is the parent folder.
     """
+    numba.config.CACHE_DIR = str(cache_folder())
+
+
+def cache_folder() -> Path:
+    """The folder numba's cache of this version of the kernels lives in (:func:`_use_fingerprinted_cache`)."""
     base = os.environ.get("NUMBA_CACHE_DIR") or str(Path.home() / ".cache" / "hdi" / "numba")
-    numba.config.CACHE_DIR = str(Path(base) / kernels_fingerprint())
+    return Path(base) / kernels_fingerprint()
+
+
+#: Set in the child interpreter of :func:`compile_apart` (which then compiles in place).
+COMPILING_APART = "HDI_COMPILING_APART"
+
+
+def compile_apart(name: str, statement: str, timeout: float = 3600.0) -> bool:
+    """Have a child interpreter run ``statement`` (Python that calls kernels) once per version of the kernel
+    sources, so that the kernels are compiled there and this process loads them from numba's cache; True when
+    they were (now or before), False with the JIT off, inside the child, or when the child failed (a warning:
+    this process then compiles them itself, as before).
+
+    Why: the machine code of a kernel compiled in this process and that of the same kernel loaded from the cache
+    differ in the last bits of some results (numba 0.68: the film's cut-link fluxes; after 30 us of the default
+    scene-2 run the attitude differs by 2e-19 m, on a stuck pad by 2e-17 m, measured), so a study's records
+    depended on whether the worker that ran them had compiled its kernels or loaded them, and a chaotic run
+    taken again could part from its first record.  Processes that load from the cache run the same code: a
+    marker ``<name>.apart`` in :func:`cache_folder` says that the child finished.
+    """
+    if JIT_DISABLED or os.environ.get(COMPILING_APART):
+        return False
+    marker = cache_folder() / f"{name}.apart"
+    if marker.exists():
+        return True
+    import subprocess
+    import sys
+
+    env = {**os.environ, COMPILING_APART: "1", "NUMBA_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-c", statement], env=env, capture_output=True, text=True, timeout=timeout)
+    if done.returncode != 0:
+        import warnings
+
+        tail = (done.stderr or done.stdout).strip().splitlines()[-3:]
+        warnings.warn(f"compiling the kernels apart ({name}) failed: {' | '.join(tail)}", RuntimeWarning, stacklevel=2)
+        return False
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    marker.write_text(statement + "\n")
+    return True
 
 
 def njit(func: Callable[..., Any] | None = None, *, inline: bool = False) -> Callable[..., Any]:

@@ -36,7 +36,7 @@ from pipeline.data.studyset import study_dataset
 from pipeline.kinds import adapter_of
 from pipeline.provenance import PROJECT_ROOT, git_commit, now
 from pipeline.run.ledger import FAILED, Ledger
-from pipeline.run.runner import run_case, warm_up
+from pipeline.run.runner import compile_kernels, run_case, warm_up
 from pipeline.study.boundary import BisectionPlanner
 from pipeline.study.multifidelity import MultiFidelityPlanner, add_multifidelity
 from pipeline.study.spec import Case, Study, lattice
@@ -115,6 +115,7 @@ def dask_client(
             client.close()
         return
     n = workers or os.cpu_count() or 1
+    compile_kernels(kinds)  # once here, not in every worker at the same time: the workers then load them
     if not log.isEnabledFor(logging.INFO):  # the scheduler lives in this process: keep its chatter out
         logging.getLogger("distributed").setLevel(logging.ERROR)
     with dask.config.set(
@@ -362,7 +363,10 @@ def run_study(
                 print(f"dask: {scheduler or 'local cluster'}, {n} workers", flush=True)
             return own
 
-        taken = execute(study, planner, ledger, None if workers == 0 and client is None else connect, seen, runner)
+        in_process = workers == 0 and client is None
+        if in_process:
+            warm_up((adapter_of(study.base).name,))
+        taken = execute(study, planner, ledger, None if in_process else connect, seen, runner)
     cells = {case.index: (case, record) for case, record, _ in taken}
     if study.mode == "multifidelity":  # full-model records replace the cheap ones where re-run
         cells.update({c.index: (c, r) for c, r, _ in taken if c.run_id in planner.full_ids})

@@ -55,12 +55,25 @@ def run_case(scene_dict: dict[str, Any], run_id: str, impacts_kept: int = 20) ->
 
 
 def warm_up(names: tuple[str, ...] | None = None) -> float:
-    """Load (or compile) the numba kernels of the kinds ``names`` (None: every kind) on one thread; returns the
-    seconds it took."""
+    """Load the numba kernels of the kinds ``names`` (None: every kind) on one thread, compiled first in a child
+    process if this version of them has not been (:func:`solver.jit.compile_apart`: a process that compiles its
+    kernels itself differs from one that loads them in the last bits); returns the seconds it took."""
     from solver.kinds import get_kind, kinds
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
     t0 = time.perf_counter()
-    for name in names or tuple(kinds()):
+    names = tuple(names or kinds())
+    compile_kernels(names)
+    for name in names:
         get_kind(name).warm_up()
     return time.perf_counter() - t0
+
+
+def compile_kernels(names: tuple[str, ...] | None = None) -> bool:
+    """Compile the numba kernels of the kinds ``names`` (None: every kind) in a child process, once per version of
+    them, without loading them here (:func:`solver.jit.compile_apart`); True when they are compiled."""
+    from solver.jit import compile_apart
+    from solver.kinds import kinds
+
+    names = tuple(sorted(names or kinds()))
+    return compile_apart(f"warm-up-{'-'.join(names)}", f"from pipeline.run.runner import warm_up; warm_up({names!r})")

@@ -62,9 +62,17 @@ def tiny() -> AbsScene:
 
 
 def warm_up() -> None:
-    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread."""
+    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread, and the two a
+    flying run does not reach: the contact's frequency and the film's secant update (``film_update`` "secant")."""
+    import numpy as np
+
+    from ..kernels.film import secant_update
+    from ..kernels.newmark import contact_frequency_squared
+
     os.environ["NUMBA_NUM_THREADS"] = "1"
     simulate_abs(tiny())
+    contact_frequency_squared(np.eye(3), -np.eye(3))
+    secant_update(np.zeros((3, 1, 2, 2)), np.ones((1, 2, 2)), np.zeros((1, 2, 2)), np.ones(3), np.ones(3))
 
 
 KIND = SceneKind(
