@@ -78,7 +78,7 @@ def cache_folder() -> Path:
 COMPILING_APART = "HDI_COMPILING_APART"
 
 
-def compile_apart(name: str, statement: str, timeout: float = 3600.0) -> bool:
+def compile_apart(name: str, statement: str, timeout: float = 3600.0, notify: Callable[[], None] | None = None) -> bool:
     """Have a child interpreter run ``statement`` (Python that calls kernels) once per version of the kernel
     sources, so that the kernels are compiled there and this process loads them from numba's cache; True when
     they were (now or before), False with the JIT off, inside the child, or when the child failed (a warning:
@@ -89,13 +89,16 @@ def compile_apart(name: str, statement: str, timeout: float = 3600.0) -> bool:
     scene-2 run the attitude differs by 2e-19 m, on a stuck pad by 2e-17 m, measured), so a study's records
     depended on whether the worker that ran them had compiled its kernels or loaded them, and a chaotic run
     taken again could part from its first record.  Processes that load from the cache run the same code: a
-    marker ``<name>.apart`` in :func:`cache_folder` says that the child finished.
+    marker ``<name>.apart`` in :func:`cache_folder` says that the child finished.  ``notify`` is called before a
+    child starts (the command line says that it compiles).
     """
     if JIT_DISABLED or os.environ.get(COMPILING_APART):
         return False
     marker = cache_folder() / f"{name}.apart"
     if marker.exists():
         return True
+    if notify is not None:
+        notify()
     import subprocess
     import sys
 

@@ -26,7 +26,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_the_child_runs_once_per_kernel_version(tmp_path, monkeypatch):
     """The statement runs in a child that knows it is one (and would not spawn another), once: the marker in the
-    version's cache folder stops a second run; a failing child is a warning and no marker."""
+    version's cache folder stops a second run, and ``notify`` is called only then; a failing child is a warning and
+    no marker."""
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv(jit.COMPILING_APART, raising=False)
     log = tmp_path / "runs.txt"
@@ -34,9 +35,11 @@ def test_the_child_runs_once_per_kernel_version(tmp_path, monkeypatch):
         f"import os; open({str(log)!r}, 'a').write(os.environ[{jit.COMPILING_APART!r}] + "
         "os.environ['NUMBA_NUM_THREADS'] + '\\n')"
     )
-    assert jit.compile_apart("probe", statement)
-    assert jit.compile_apart("probe", statement)
+    told = []
+    assert jit.compile_apart("probe", statement, notify=lambda: told.append(1))
+    assert jit.compile_apart("probe", statement, notify=lambda: told.append(1))
     assert log.read_text().splitlines() == ["11"], "one run, in a child that is marked and has one thread"
+    assert told == [1], "the caller is told once, when the child starts"
     assert (jit.cache_folder() / "probe.apart").exists()
     assert jit.cache_folder().parent == tmp_path / "cache"
     with pytest.warns(RuntimeWarning, match="compiling the kernels apart \\(broken\\) failed.*ZeroDivisionError"):

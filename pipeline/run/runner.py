@@ -69,11 +69,21 @@ def warm_up(names: tuple[str, ...] | None = None) -> float:
     return time.perf_counter() - t0
 
 
-def compile_kernels(names: tuple[str, ...] | None = None) -> bool:
+def compile_kernels(names: tuple[str, ...] | None = None, quiet: bool = False) -> bool:
     """Compile the numba kernels of the kinds ``names`` (None: every kind) in a child process, once per version of
-    them, without loading them here (:func:`solver.jit.compile_apart`); True when they are compiled."""
+    them, without loading them here (:func:`solver.jit.compile_apart`); True when they are compiled.  Says so on
+    stderr when it compiles, unless ``quiet``."""
+    import sys
+
     from solver.jit import compile_apart
     from solver.kinds import kinds
 
     names = tuple(sorted(names or kinds()))
-    return compile_apart(f"warm-up-{'-'.join(names)}", f"from pipeline.run.runner import warm_up; warm_up({names!r})")
+
+    def notify() -> None:
+        if not quiet:
+            print(f"compiling the numba kernels ({', '.join(names)}) once for this version of the code: about a "
+                  "minute a kind", file=sys.stderr, flush=True)  # fmt: skip
+
+    statement = f"from pipeline.run.runner import warm_up; warm_up({names!r})"
+    return compile_apart(f"warm-up-{'-'.join(names)}", statement, notify=notify)
