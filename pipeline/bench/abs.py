@@ -111,6 +111,14 @@ SETTINGS = (
         },
         2.0,
     ),
+    (
+        "2 dt, film at dt",
+        "the default at twice its step (0.2 us) with the film advanced in two steps of 0.1 us within each "
+        "(numerics.film_dt 0.1 us: the slider's balance solved once per 0.2 us, the film over the track sampled "
+        "every 0.1 us); derivatives every 25 steps (5 us), contact substeps to dt / 16 (12.5 ns)",
+        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_dt": 1e-7},
+        2.0,
+    ),
 )
 #: The fine reference of the accuracy runs (not timed): the default at a quarter of its step (0.025 us), whose
 #: generalized-alpha damping of the 728-kHz mode is 1e-7 against its physical 1.58e-3.

@@ -328,9 +328,15 @@ class AbsFilm:
 
     # time step ----------------------------------------------------------------------------------------
 
-    def step(self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float) -> bool:
+    def step(
+        self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float,
+        inner: tuple[np.ndarray, ...] = (),
+    ) -> bool:  # fmt: skip
         """Advance P over dt while the attitude moves q_old -> q_new and the disk disk_old -> disk_new (nx, ny) [m];
         True if every node pressure after it is positive.
+
+        ``inner``: the disk at m - 1 equally spaced times inside the step (``numerics.film_dt``); the film then
+        takes m equal steps of dt / m, the attitude moving linearly from q_old to q_new, each one this step.
 
         One kernel call (:func:`solver.kernels.film.film_advance`): the links' spacings at mid-step, the step,
         then the force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
@@ -338,12 +344,19 @@ class AbsFilm:
         damping at dt 0.05 us (README, "The film force's time error").  The other links keep their mid-step
         spacings (what the next step or :meth:`fill_faces` overwrites).
         """
-        disk_old, disk_new = np.ascontiguousarray(disk_old, dtype=float), np.ascontiguousarray(disk_new, dtype=float)
         state = (self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.disk, self.disk_xf,
                  self.disk_yf, self._disk_mid)  # fmt: skip
-        ok = kf.film_advance(q_old, q_new, disk_old[None], disk_new[None], self.sigma / dt, self._advance_geometry,
-                             state, *self._kernel_film)  # fmt: skip
-        self.reynolds_solves += 1
+        disks = [np.ascontiguousarray(d, dtype=float)[None] for d in (disk_old, *inner, disk_new)]
+        m = len(disks) - 1
+        ok = True
+        for k in range(m):
+            qa = q_old if k == 0 else q_old + (k / m) * (q_new - q_old)
+            qb = q_new if k == m - 1 else q_old + ((k + 1) / m) * (q_new - q_old)
+            ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry, state,
+                                 *self._kernel_film)  # fmt: skip
+            self.reynolds_solves += 1
+            if not ok:
+                break
         return ok
 
     @property

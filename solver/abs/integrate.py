@@ -206,6 +206,8 @@ class AbsStepper:
         self.linearized = self.use_air and num.film_coupling == "linearized"
         self.repass_gap = num.film_repass if self.linearized else 0.0
         self.jacobian_every = num.film_jacobian_every
+        self.film_dt = num.film_dt
+        self._inner: tuple[np.ndarray, ...] = ()  # the disk inside this step at the film's own steps (film_dt)
         self.secant = self.linearized and num.film_update == "secant"
         self.secant_updates = 0
         # with the secant update, each step size keeps its own derivatives (a contact's substeps and the step
@@ -311,6 +313,8 @@ class AbsStepper:
         q, v, a = self.q, self.v, self.a
         t1 = self.t + h
         zd1, sd1 = self.track.at(t1)
+        m = film_steps(h, self.film_dt)
+        self._inner = tuple(self.track.at(self.t + k * h / m)[0] for k in range(1, m))
         P_saved = film.P.copy()
         if self.secant:
             self._use_size(h)
@@ -420,7 +424,7 @@ class AbsStepper:
         if not self.use_air:
             return self.f_air
         film = self.film
-        if not film.step(self.q, q_path, self.zd, zd1, h):
+        if not film.step(self.q, q_path, self.zd, zd1, h, self._inner):
             return None
         f_air = film.forces()
         if not (math.isfinite(f_air[0]) and math.isfinite(f_air[1]) and math.isfinite(f_air[2])):
@@ -455,7 +459,7 @@ class AbsStepper:
             film.P[:] = P_start
             q_probe = q_path.copy()
             q_probe[k] += probe
-            film.step(self.q, q_probe, self.zd, zd1, h)
+            film.step(self.q, q_probe, self.zd, zd1, h, self._inner)
             self.film_dPdq[k] = (film.P - P_path) / probe
             self.film_K[:, k] = (film.forces() - f_path) / probe
         film.P[:] = P_path
@@ -647,6 +651,13 @@ class _Samples:
         self.series["air_force"][k] = stepper.f_air[0]
         self.series["contact_cells"][k] = sf.cells
         self.k += 1
+
+
+def film_steps(h: float, film_dt: float) -> int:
+    """Film steps in a step of h: the fewest equal ones no longer than ``film_dt`` (0: one)."""
+    if film_dt <= 0.0 or h <= film_dt:
+        return 1
+    return math.ceil(h / film_dt * (1.0 - 1e-12))
 
 
 def contact_splits_needed(omega: float, dt: float, limit: float, most: int) -> int:

@@ -409,6 +409,15 @@ class AbsNumerics(Section):
         "steps",
         lo=0.0,
     )
+    film_dt: float = quantity(
+        0.0,
+        "s",
+        "longest film step: a step (or substep) h longer than this advances the film in m = ceil(h / film_dt) equal "
+        "steps along the attitude path, linear from q_n to the path's end, over the track sampled at each film "
+        "step's ends; the slider's balance is still solved once per step (README, 'The film's own step'); 0: one "
+        "film step per step",
+        lo=0.0,
+    )
     contact_splits: int = quantity(
         3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8
     )
