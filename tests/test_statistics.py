@@ -145,6 +145,12 @@ def test_a_cell_whose_grid_misses_the_pad_fails_the_study_before_any_run(tmp_pat
     with pytest.raises(ConfigError, match="'regime_map' is not a study figure of kind 'rails'"):
         load_study(write(tmp_path, 'figure = "regime_map"', axis("contact.mu", [0.0]),
                          scene=ROOT / "studies" / "scenes" / "benson1989.toml"))  # fmt: skip
+    # the statistics figure compares each value of its first axis with the last: a refinement, a number (a string
+    # axis ran all its runs, then failed on the report)
+    with pytest.raises(ConfigError, match=r"axis 'numerics.film_update' has the values \['none', 'secant'\] "
+                       r"\(allowed: numbers\)"):  # fmt: skip
+        load_study(write(tmp_path, 'figure = "statistics"', axis("numerics.film_update", ["none", "secant"])))
+    assert load_study(write(tmp_path, 'figure = "statistics"', axis("numerics.dt", [0.1e-6, 0.05e-6]))).figure
 
 
 # ---- the statistics study and the regime map through real dask workers ------------------------------------

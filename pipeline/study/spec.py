@@ -347,6 +347,11 @@ def load_study(
         allowed = [f for f in STUDY_FIGURES if f in adapter.figures]
         raise _study_error(path, "[study] figure", f"{figure!r} is not a study figure of kind {adapter.name!r} "
                            f"(allowed: {', '.join(allowed) or 'none'})")  # fmt: skip
+    if figure == "statistics" and not all(isinstance(v, int | float) and not isinstance(v, bool)
+                                          for v in axes[0].values):  # fmt: skip
+        raise _study_error(path, "[study] figure", f"'statistics' compares each value of the first axis with its "
+                           f"last, a refinement (numerics.dt, a grid size): axis {axes[0].key!r} has the values "
+                           f"{list(axes[0].values)!r} (allowed: numbers)")  # fmt: skip
 
     study = Study(
         name=name,
