@@ -25,7 +25,8 @@ From these profiles:
   a plain face; otherwise it is a *cut link*, described by its pieces and,
   per piece, its segments along the link (length fraction, mid-point,
   depth).  The film joins the segments in series and the pieces in
-  parallel (:func:`solver.kernels.film.cut_flux`);
+  parallel (:func:`solver.kernels.film.cut_fluxes`); the pieces of one
+  link that see the same steps are one piece there (:func:`_merged`);
 * a control volume gets its mean depth (what the squeeze term stores) and
   its *contact patch*: the part at its shallowest depth, with its area and
   centroid, where the surface forces act.
@@ -196,6 +197,28 @@ def _plain(lines: list[Line], a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where(plain, out, np.nan)
 
 
+def _merged(mids: np.ndarray, weights: np.ndarray, parts: list, length: float) -> list:
+    """A cut link's pieces with one profile merged: [(mid-line, weight, (length, mid, depth))].
+
+    A strip is split at every polygon vertex and slanted crossing inside it, for all of its links; on most links
+    many of its pieces see the same steps at the same places (the same depths, breakpoints within MERGE of the
+    link).  Such pieces are one piece of their summed weight on their weighted mid-line, where what varies across
+    the strip smoothly (the crown, camber and twist, the roll) is taken: the midpoint rule over the merged band, as
+    over each piece before (on chen_bogy2007, 2673 pieces of 437 cut x links become 703).
+    """
+    out: list = []
+    tol = MERGE * length
+    for c, w, (seg_len, seg_mid, depth) in zip(mids, weights, parts, strict=True):
+        for k, (c0, w0, (len0, mid0, depth0)) in enumerate(out):
+            if (depth0.size == depth.size and np.array_equal(depth0, depth) and np.all(np.abs(len0 - seg_len) <= tol)
+                    and np.all(np.abs(mid0 - seg_mid) <= tol)):  # fmt: skip
+                out[k] = ((w0 * c0 + w * c) / (w0 + w), w0 + w, (len0, mid0, depth0))
+                break
+        else:
+            out.append((c, w, (seg_len, seg_mid, depth)))
+    return out
+
+
 def _links(strips, nodes: np.ndarray, axis: int) -> tuple[np.ndarray, CutLinks]:
     """Plain-link depths (n_nodes - 1, n_strips) and the cut links along ``axis``."""
     link_depth = np.empty((nodes.size - 1, len(strips)))
@@ -206,8 +229,7 @@ def _links(strips, nodes: np.ndarray, axis: int) -> tuple[np.ndarray, CutLinks]:
         for i in np.flatnonzero(np.isnan(link_depth[:, j])):
             a, b = nodes[i], nodes[i + 1]
             face.append((i, j) if axis == 0 else (j, i))
-            for c, w, line in zip(mids, weights, lines, strict=True):
-                length, mid, depth = clip(line, a, b)
+            for c, w, (length, mid, depth) in _merged(mids, weights, [clip(line, a, b) for line in lines], b - a):
                 weight.append(w)
                 theta.extend(length / (b - a))
                 along = np.stack([mid, mid - 0.5 * length, mid + 0.5 * length])
