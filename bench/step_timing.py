@@ -11,7 +11,9 @@ Cases (``--case``, all by default):
 Scene 1 reports a run's wall and CPU time over its steps (setting up a run
 costs a few steps).  Scene 2 sets up a steady film (a sparse Newton solve)
 at the start of every run, so it reports the difference of a long and a
-short run per extra step.  The median per case is printed at the end; CPU
+short run per extra step (``--abs-steps`` of them, 100 by default: a few tenths
+of a second of a flying run, which this shared machine's load has moved by half;
+use 500 or more for a verdict).  The median per case is printed at the end; CPU
 time is the less sensitive to other processes on a shared machine.
 
 A/B comparison against untouched copies of the package: ``--against DIR
@@ -57,8 +59,11 @@ RAILS_SCENE = ROOT / "studies" / "scenes" / "benson1989.toml"
 ABS_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007.toml"
 MTP_SCENE = ROOT / "studies" / "scenes" / "chen_bogy2007_mtp.toml"
 OVERRIDES = {"contact.mu": 0.5, "contact.alpha": 0.85}
-#: Scene 2: steps of the short and the long run whose difference is timed.
-ABS_STEPS = (10, 110)
+#: Scene 2: steps of the short run; the long one has ``--abs-steps`` more, and their difference is timed.
+ABS_SHORT = 10
+#: Scene 2: steps timed by default (the difference of the two runs).  100 steps is a few tenths of a second of a
+#: flying run, short enough for this shared machine's load to move one sample by half: use more for a verdict.
+ABS_STEPS = 100
 CASES = {
     "rails-101x21": (RAILS_SCENE, OVERRIDES),
     "rails-201x21": (RAILS_SCENE, {**OVERRIDES, "numerics.nx": 201}),
@@ -99,13 +104,15 @@ def rails_timer(overrides: dict[str, object]) -> Callable[[], tuple[float, float
     return lambda: per_step(lambda: simulate(scene, steady).work["steps"])
 
 
-def abs_timer(path: Path, overrides: dict[str, object]) -> Callable[[], tuple[float, float]]:
-    """A function running a scene-2 file twice (ABS_STEPS) and returning the (wall, CPU) seconds per extra step."""
+def abs_timer(path: Path, overrides: dict[str, object], steps: int = ABS_STEPS) -> Callable[[], tuple[float, float]]:
+    """A function running a scene-2 file twice (ABS_SHORT steps, and ``steps`` more) and returning the (wall, CPU)
+    seconds per extra step."""
     from solver.abs.integrate import simulate_abs
     from solver.abs.steady import fly_start
 
     dt = load_scene(path, overrides).numerics.dt
-    short, long = (load_scene(path, {**overrides, "numerics.t_end": n * dt}) for n in ABS_STEPS)
+    n_short, n_long = ABS_SHORT, ABS_SHORT + steps
+    short, long = (load_scene(path, {**overrides, "numerics.t_end": n * dt}) for n in (n_short, n_long))
     steady = fly_start(short)
     simulate_abs(short, steady)  # warm-up (JIT, caches)
 
@@ -118,7 +125,6 @@ def abs_timer(path: Path, overrides: dict[str, object]) -> Callable[[], tuple[fl
     def once() -> tuple[float, float]:
         t_short = per_step(lambda: run(short))
         t_long = per_step(lambda: run(long))
-        n_short, n_long = ABS_STEPS
         return tuple((b * n_long - a * n_short) / (n_long - n_short) for a, b in zip(t_short, t_long, strict=True))
 
     return once
@@ -135,14 +141,14 @@ def wait_for_peers(barrier: Path, peers: int, timeout: float = 600.0) -> None:
 
 
 def step_times(
-    cases: list[str], repeats: int, barrier: Path | None = None, peers: int = 1
+    cases: list[str], repeats: int, barrier: Path | None = None, peers: int = 1, abs_steps: int = ABS_STEPS
 ) -> dict[str, list[tuple[float, float]]]:
     """(wall, CPU) seconds per step of each case, ``repeats`` samples each, cases interleaved.
 
     With ``barrier``, the timing starts once ``peers`` processes have built their timers (:func:`wait_for_peers`).
     """
     timers = {
-        case: abs_timer(path, overrides) if path != RAILS_SCENE else rails_timer(overrides)
+        case: abs_timer(path, overrides, abs_steps) if path != RAILS_SCENE else rails_timer(overrides)
         for case, (path, overrides) in ((case, CASES[case]) for case in cases)
     }
     if barrier is not None:
@@ -219,7 +225,9 @@ def kernel_times(repeats: int, calls: int = 100) -> dict[str, float]:
     return {name: statistics.median(v) for name, v in samples.items()}
 
 
-def compare(others: list[Path], cases: list[str], rounds: int, repeats: int, concurrent: int = 1) -> None:
+def compare(
+    others: list[Path], cases: list[str], rounds: int, repeats: int, concurrent: int = 1, abs_steps: int = ABS_STEPS
+) -> None:
     """Interleaved A/B: fresh processes taking turns on the trees ``others`` and this one, medians and ratios.
 
     With ``concurrent`` > 1, each turn runs that many processes of the tree at once, timed together behind a
@@ -234,7 +242,8 @@ def compare(others: list[Path], cases: list[str], rounds: int, repeats: int, con
     for k in range(rounds):
         for tree in trees[k % len(trees) :] + trees[: k % len(trees)]:
             env = {**os.environ, "PYTHONPATH": str(tree)}
-            cmd = [sys.executable, __file__, "--json", "--repeats", str(repeats), "--case", *cases]
+            cmd = [sys.executable, __file__, "--json", "--repeats", str(repeats), "--abs-steps", str(abs_steps),
+                   "--case", *cases]  # fmt: skip
             with tempfile.TemporaryDirectory(prefix="step_timing_barrier_") as barrier:
                 if concurrent > 1:
                     cmd += ["--barrier", barrier, "--peers", str(concurrent)]
@@ -282,18 +291,22 @@ def main() -> None:
     ap.add_argument("--kernels", action="store_true", help="time the film kernels one by one instead")
     ap.add_argument("--concurrent", type=int, default=1, help="with --against: processes of a tree timed at once")
     ap.add_argument("--json", action="store_true", help="print the samples as one JSON line")
+    ap.add_argument("--abs-steps", type=int, default=ABS_STEPS,
+                    help=f"scene-2 steps timed per sample (default {ABS_STEPS}; more on a loaded machine)")  # fmt: skip
     ap.add_argument("--barrier", type=Path, help=argparse.SUPPRESS)  # set by --concurrent for its processes
     ap.add_argument("--peers", type=int, default=1, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.concurrent < 1:
         ap.error(f"--concurrent = {args.concurrent}: at least 1 process")
+    if args.abs_steps < 1:
+        ap.error(f"--abs-steps = {args.abs_steps}: at least 1 step")
     if args.kernels:
         print("  ".join(f"{k} {v * 1e6:.1f} us" for k, v in kernel_times(args.repeats).items()))
         return
     if args.against is not None:
-        compare(args.against, args.case, args.rounds, args.repeats, args.concurrent)
+        compare(args.against, args.case, args.rounds, args.repeats, args.concurrent, args.abs_steps)
         return
-    samples = step_times(args.case, args.repeats, args.barrier, args.peers)
+    samples = step_times(args.case, args.repeats, args.barrier, args.peers, args.abs_steps)
     if args.json:
         import solver
 
