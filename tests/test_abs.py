@@ -353,8 +353,9 @@ def test_a_cut_links_pieces_with_one_profile_are_one_piece(monkeypatch):
                 for _, th_l, d_l, _ in m_link[:k]:
                     same_depths = d_k.size == d_l.size and np.array_equal(d_k, d_l)
                     assert not (same_depths and np.allclose(th_k, th_l, rtol=0.0, atol=2 * MERGE)), "one profile twice"
-    assert (merged.cuts_x.piece_ptr[-1], apart.cuts_x.piece_ptr[-1]) == (651, 2673)
-    assert (merged.cuts_x.seg_ptr[-1], apart.cuts_x.seg_ptr[-1]) == (1162, 3608)
+    # the trailing step's slanted sides split every strip they cross for all of its links: most pieces repeat
+    assert merged.cuts_x.piece_ptr[-1] < 0.5 * apart.cuts_x.piece_ptr[-1]
+    assert merged.cuts_x.seg_ptr[-1] < 0.5 * apart.cuts_x.seg_ptr[-1]
 
 
 def _forces_merged_and_apart(monkeypatch, scene_overrides: dict, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
