@@ -139,17 +139,21 @@ def test_attitude_derivative_matches_central_differences(sigma, motion):
 
 @pytest.mark.jitless
 def test_a_patch_in_the_far_tail_is_no_contact():
-    """A rough patch 38.4 sigma above the asperities' mean plane has no contact pressure (it underflows) but a
-    subnormal stiffness: omega_c^2 ~ 1e-309, whose reciprocal overflows.  Below CONTACT_OMEGA2_FLOOR the contact
-    damping is absent: zero force and finite zero matrices (it was nan there, and a run failed on it), while a
+    """A rough patch 38.4 sigma above the asperities' mean plane had no contact pressure (it underflows) but a
+    subnormal stiffness: omega_c^2 ~ 1e-309, whose reciprocal overflowed (nan, and a run failed on it).  Beyond
+    T_NEGLIGIBLE the law is 0 with its slope; just inside it (11.9 sigma) the stiffness is positive but omega_c^2
+    lies below CONTACT_OMEGA2_FLOOR.  Both have no contact damping: zero force and finite zero matrices, while a
     patch one sigma above the plane is damped."""
     sigma = 0.0838e-9
     b = np.array([[1.0], [-0.35e-3], [0.0]])
     area = np.array([25e-12])
-    for t, damped in ((38.36, False), (1.0, True)):
+    for t, damped in ((38.36, False), (11.9, False), (1.0, True)):
         offset = np.array([EPS + t * sigma])
         pc, dpc = ksurf.contact_pressure(offset[0], sigma, EPS, GW_COEF)
-        assert (pc == 0.0 and 0.0 < -dpc < 1e-300) if not damped else dpc < 0.0
+        if t >= ksurf.T_NEGLIGIBLE:
+            assert pc == 0.0 and dpc == 0.0
+        else:
+            assert (0.0 < pc and 0.0 < -dpc < 1e-10) if not damped else dpc < 0.0
         normal, f, C, dfdq = damping(offset, np.array([sigma]), b, area, (-1e-3, 0.0, 0.0), (0.0,), 0.1, jac=True)
         assert np.all(np.isfinite(f)) and np.all(np.isfinite(C)) and np.all(np.isfinite(dfdq))
         assert (normal != 0.0) == damped and (np.any(C != 0.0)) == damped

@@ -137,6 +137,22 @@ def test_contact_pressure_smooth_limit():
     assert np.all(pressures(EPS_LJ + np.array([0.0, 1e-12, 1e-9]), 0.0).contact == 0.0)
 
 
+def test_contact_beyond_its_reach_is_below_round_off_of_a_touching_cell():
+    """From t = T_NEGLIGIBLE on a cell's contact is 0; what that drops (the law just below the cut-off, and every
+    t beyond it, where F_n falls) is below 1e-30 of a touching cell's pressure and slope (t = 0), far under the
+    round-off (1.1e-16) of any sum the cell enters with one that touches."""
+    sigma = 1e-9
+    t_cut = kernels.T_NEGLIGIBLE
+    beyond = [kernels.contact_pressure(EPS_LJ + sigma * t, sigma, EPS_LJ, GW_COEF) for t in (t_cut, t_cut + 1, 100.0)]
+    assert all(p == 0.0 and dp == 0.0 for p, dp in beyond)
+    touching = kernels.contact_pressure(EPS_LJ, sigma, EPS_LJ, GW_COEF)
+    below = kernels.contact_pressure(EPS_LJ + sigma * np.nextafter(t_cut, 0.0), sigma, EPS_LJ, GW_COEF)
+    assert 0.0 < below[0] < 1e-30 * touching[0]
+    assert 0.0 < abs(below[1]) < 1e-30 * abs(touching[1])
+    f32, f12 = kernels.gw_integrals(t_cut)  # the exact law at the cut-off
+    assert f32 < 1e-30 * kernels.gw_integrals(0.0)[0] and f12 < 1e-30 * kernels.gw_integrals(0.0)[1]
+
+
 # --- adhesion ---------------------------------------------------------------------------------------------------------
 
 
@@ -419,7 +435,8 @@ def rigid_gw(d, sigma):
 
 @pytest.mark.parametrize("sigma", [0.5e-9, 2e-9])
 def test_rough_contact_solves_the_series_law(rough_sphere, sigma):
-    """u = d + C P(u) on every cell to 1e-12 sigma, and the bulk compliance only lowers a pressure: 0 < p <= P(d)."""
+    """u = d + C P(u) on every cell to 1e-12 sigma, and the bulk compliance only lowers a pressure: 0 <= p <= P(d),
+    with p > 0 on every cell within the contact's reach ((u - eps) / sigma < T_NEGLIGIBLE)."""
     from solver.elastic import solve_rough_contact
 
     s = rough_sphere
@@ -427,7 +444,9 @@ def test_rough_contact_solves_the_series_law(rough_sphere, sigma):
     u = s["d"] + s["C"] @ p
     P_u = rigid_gw(u, sigma)[0]
     np.testing.assert_allclose(p, P_u, rtol=1e-6, atol=1e-6 * p.max())
-    assert np.all(p > 0.0) and np.all(p <= rigid_gw(s["d"], sigma)[0] * (1 + 1e-12))
+    reach = (u - EPS_LJ) / sigma < kernels.T_NEGLIGIBLE
+    assert np.all(p[reach] > 0.0) and np.all(p[~reach] == 0.0) and reach.sum() > 0.9 * p.size
+    assert np.all(p <= rigid_gw(s["d"], sigma)[0] * (1 + 1e-12))
     assert (p @ s["area"]) < 0.5 * (rigid_gw(s["d"], sigma)[0] @ s["area"])  # the half-space carries real compliance
     assert iterations <= 30
 
