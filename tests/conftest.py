@@ -9,6 +9,7 @@ observed order.
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
 import math
 from pathlib import Path
 
@@ -205,3 +206,12 @@ def drop_scene(dt: float, *, mu: float = 0.0, rho: float | None = None, t_end: f
         "numerics": numerics,
     }
     return scene_from_dict(data)
+
+
+def bench_script(name: str):
+    """A script of bench/ (not a package) loaded as a module by its path: ``bench_script("statistics_grid")``."""
+    path = Path(__file__).resolve().parents[1] / "bench" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

@@ -2,21 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
+from conftest import bench_script
 
 
 @pytest.fixture(scope="module")
 def landings():
-    spec = importlib.util.spec_from_file_location("rare_landings", ROOT / "bench" / "rare_landings.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_script("rare_landings")
 
 
 def test_wilson_interval_against_its_closed_forms(landings):

@@ -2,19 +2,16 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 
 import xarray as xr
+from conftest import bench_script
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _script():
-    spec = importlib.util.spec_from_file_location("statistics_grid", ROOT / "bench" / "statistics_grid.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return bench_script("statistics_grid")
 
 
 def test_non_negative_panels_stop_at_zero_where_an_interval_reaches_below(tmp_path):
