@@ -112,6 +112,27 @@ SETTINGS = (
         2.0,
     ),
     (
+        "default, refresh gap",
+        "the default with the film's derivatives refreshed also where the attitude has moved a corner of the trailing "
+        "edge 0.5 nm from their last refresh (numerics.film_refresh_gap): stale derivatives of a pad coming down let "
+        "the film's 728-kHz mode grow into a limit cycle that strikes the disk once per period",
+        {"numerics.film_refresh_gap": 5e-10},
+        1.0,
+    ),
+    (
+        "2 dt, secant, refresh gap",
+        "'2 dt, secant' with the film's derivatives refreshed also where the attitude has moved a corner of the "
+        "trailing edge 0.5 nm from their last refresh (numerics.film_refresh_gap)",
+        {
+            "numerics.film_jacobian_every": 25,
+            "numerics.contact_splits": 4,
+            "numerics.film_repass": 2e-11,
+            "numerics.film_update": "secant",
+            "numerics.film_refresh_gap": 5e-10,
+        },
+        2.0,
+    ),
+    (
         "2 dt, film at dt",
         "the default at twice its step (0.2 us) with the film advanced in two steps of 0.1 us within each "
         "(numerics.film_dt 0.1 us: the slider's balance solved once per 0.2 us, the film over the track sampled "

@@ -206,6 +206,8 @@ class AbsStepper:
         self.linearized = self.use_air and num.film_coupling == "linearized"
         self.repass_gap = num.film_repass if self.linearized else 0.0
         self.jacobian_every = num.film_jacobian_every
+        self.refresh_gap = num.film_refresh_gap if self.linearized else 0.0
+        self.moved_refreshes = 0  # refreshes because the trailing edge moved farther than refresh_gap
         self.film_dt = num.film_dt
         self._inner: tuple[np.ndarray, ...] = ()  # the disk inside this step at the film's own steps (film_dt)
         self.secant = self.linearized and num.film_update == "secant"
@@ -218,6 +220,7 @@ class AbsStepper:
         self.film_K = np.zeros((3, 3))
         self.film_dPdq = np.zeros((3, *film.P.shape))
         self.jacobian_age, self.jacobian_h = 0, 0.0
+        self.jacobian_q = np.zeros(3)  # the end attitude of the last refresh's film step
         self.newton_kernel = surface.law == "greenwood_williamson"
         self.damping_ratio = scene.contact.damping_ratio
         self.m_inv = np.linalg.inv(self.M)
@@ -229,6 +232,7 @@ class AbsStepper:
         corners_x = np.array([0.0, s.length, s.length, 0.0]) - s.pivot_x
         corners_y = np.array([-0.5, -0.5, 0.5, 0.5]) * s.width - s.pivot_y
         self.corner_b = np.stack([np.ones(4), -corners_x, -corners_y], axis=1)  # d(spacing)/dq at the corners
+        self.trailing_b = self.corner_b[1:3]  # the trailing edge's corners (x = length)
 
         self.t = 0.0
         self.q = steady.q.copy()
@@ -448,10 +452,14 @@ class AbsStepper:
         The film step P_n -> P_n+1(q_n+1) (from ``P_start``, along q -> q_path, just taken: ``film.P``) is
         differentiated by forward differences that move the face by FILM_PROBE at most:
         ``film_dPdq`` (3, 1, nx, ny) and the forces' ``film_K`` = d f_air / d q_n+1 (3, 3).  Refreshed every
-        ``numerics.film_jacobian_every`` steps and whenever the step size changes; ``film.P`` is left as found.
+        ``numerics.film_jacobian_every`` steps, whenever the step size changes, and where ``q_path`` has moved a
+        corner of the trailing edge farther than ``numerics.film_refresh_gap`` from the last refresh's attitude;
+        ``film.P`` is left as found.
         """
         if self.jacobian_age < self.jacobian_every and h == self.jacobian_h:
-            return True
+            if not (self.refresh_gap > 0.0 and self._trailing_gap(q_path - self.jacobian_q) > self.refresh_gap):
+                return True
+            self.moved_refreshes += 1
         film = self.film
         P_path = film.P.copy()
         for k in range(3):
@@ -463,13 +471,13 @@ class AbsStepper:
             self.film_dPdq[k] = (film.P - P_path) / probe
             self.film_K[:, k] = (film.forces() - f_path) / probe
         film.P[:] = P_path
-        self.jacobian_age, self.jacobian_h = 0, h
+        self.jacobian_age, self.jacobian_h, self.jacobian_q = 0, h, q_path.copy()
         self.jacobian_refreshes += 1
         if not np.all(np.isfinite(self.film_K)):
             return False
         self.film_omega = math.sqrt(float(np.max(np.abs(np.linalg.eigvals(self.m_inv @ self.film_K)))))
         if self.secant:
-            self._sizes[h] = [self.film_K, self.film_dPdq, 0, self.film_omega, self.t]
+            self._sizes[h] = [self.film_K, self.film_dPdq, 0, self.film_omega, self.t, self.jacobian_q]
         return True
 
     def _use_size(self, h: float) -> None:
@@ -481,7 +489,7 @@ class AbsStepper:
             self._sizes[self.jacobian_h][2] = self.jacobian_age
         entry = self._sizes.get(h)
         if entry is not None and self.t - entry[4] <= self.size_memory:
-            self.film_K, self.film_dPdq, self.jacobian_age, self.film_omega, _ = entry
+            self.film_K, self.film_dPdq, self.jacobian_age, self.film_omega, _, self.jacobian_q = entry
         else:
             self._sizes.pop(h, None)
             self.film_K, self.film_dPdq = np.zeros((3, 3)), np.zeros_like(self.film_dPdq)
@@ -510,6 +518,10 @@ class AbsStepper:
     def _path_gap(self, dq: np.ndarray) -> float:
         """Largest change of the spacing over the face's corners [m] made by the attitude change dq."""
         return float(np.max(np.abs(self.corner_b @ dq)))
+
+    def _trailing_gap(self, dq: np.ndarray) -> float:
+        """Largest change of the spacing at the trailing edge's corners [m] made by the attitude change dq."""
+        return float(np.max(np.abs(self.trailing_b @ dq)))
 
     def _newton(self, h: float, cells: Candidates, a_new: np.ndarray, f_path: np.ndarray, q_path: np.ndarray,
                 f_old: np.ndarray, controls: tuple | None = None):  # fmt: skip
@@ -787,6 +799,7 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         "reynolds_solves": film.reynolds_solves,
         "film_repasses": stepper.film_repasses,
         "film_jacobians": stepper.jacobian_refreshes,
+        "film_jacobians_moved": stepper.moved_refreshes,
         "film_secant_updates": stepper.secant_updates,
         "contact_substeps": stepper.contact_substeps,
         "contact_redos": stepper.contact_redos,

@@ -455,6 +455,15 @@ class AbsNumerics(Section):
     film_jacobian_every: int = quantity(
         50, "1", "steps between refreshes of the film step's derivatives (film_coupling 'linearized')", lo=1
     )
+    film_refresh_gap: float = quantity(
+        0.0,
+        "m",
+        "film_coupling 'linearized': the film step's derivatives are refreshed also when the attitude has moved a "
+        "corner of the trailing edge farther than this from where they were last refreshed (the film's stiffness "
+        "grows steeply as the trailing pad comes down; README, 'Derivatives refreshed where the pad moves'); 0: "
+        "only every film_jacobian_every steps",
+        lo=0.0,
+    )
     film_update: str = quantity(
         "none",
         "",
