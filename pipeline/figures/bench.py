@@ -101,7 +101,7 @@ def plot_scene2_bench(ds: xr.Dataset) -> Figure:
         ax.axhline(base, color="k", ls="--", lw=1.0, label=f"baseline solver's own run, same session ({base:.1f} s)")
     ax.axhline(5.0, color="tab:red", ls=":", lw=1.2, label="target: 5 s per simulated ms")
     ax.margins(y=0.35)  # room for the speed-up labels and the legend above the bars
-    ax.set_xticks(range(len(timed)), timed, rotation=15, fontsize=8)
+    ax.set_xticks(range(len(timed)), timed, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
     ax.set_ylabel("wall time per simulated ms [s] (one core, median)")
     ax.set_title("cost of the default run", fontsize=10)
     ax.legend(fontsize=8, loc="upper right")
@@ -117,7 +117,7 @@ def plot_scene2_bench(ds: xr.Dataset) -> Figure:
         _zoom_past_outliers(ax, x, mean, ci)
         if key == "mean_contact_force":  # a skewed sample's t-interval reaches below zero: the force does not
             ax.set_ylim(bottom=max(ax.get_ylim()[0], 0.0))
-        ax.set_xticks(x, settings, rotation=15, fontsize=8)
+        ax.set_xticks(x, settings, rotation=30, ha="right", rotation_mode="anchor", fontsize=8)
         ax.set_ylabel(label)
         ax.set_title(f"{label.split(' [')[0]} over {ds.sizes['seed']} tracks", fontsize=10)
         ax.grid(True, axis="y", alpha=0.3)
