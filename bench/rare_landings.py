@@ -69,7 +69,8 @@ def run(names: list[str], seeds: list[int], out: Path) -> None:
             result = simulate_abs(scene, steady=steady)
             record = {"setting": name, "seed": seed, "status": result.status, "message": result.message,
                       "wall": time.perf_counter() - wall, "cpu": time.process_time() - cpu,
-                      "git_commit": git_commit(), **summarize(result, scene)}  # fmt: skip
+                      "git_commit": git_commit(), **summarize(result, scene),
+                      **{f"work_{k}": v for k, v in result.work.items()}}  # fmt: skip
             with out.open("a") as f:
                 f.write(json.dumps(record) + "\n")
             print(f"{name} seed {seed}: 3-sigma {record['bouncing_3sigma'] * 1e9:.3f} nm, contact "
@@ -105,6 +106,8 @@ def report(path: Path, reference: str) -> None:
         lo, hi = wilson(k, len(runs))
         line = f"  {name:20s} " + "  ".join(cells) + f"  landed {k} ({100 * lo:.1f}-{100 * hi:.1f} %)"
         line += f"  CPU median {np.median([r['cpu'] for r in runs]):.1f} s"
+        if all("work_reynolds_solves" in r for r in runs):  # the film solves: a cost that the machine's load leaves
+            line += f", film solves median {np.median([r['work_reynolds_solves'] for r in runs]):.0f}"
         if name != first:
             k0 = sum(table[first][s]["mean_contact_force"] > LANDING for s in common)
             p = stats.fisher_exact([[k, len(common) - k], [k0, len(common) - k0]], alternative="greater").pvalue
