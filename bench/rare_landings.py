@@ -91,14 +91,19 @@ def landed_seeds(table: dict[str, dict[int, dict]], reference: str) -> list[int]
 
 
 def report(path: Path, reference: str) -> None:
+    """The table of the runs in ``path``: per setting its statistics, landings and cost, each paired with the first
+    setting and, where the reference ran on every track, with the reference (then a row of its own too)."""
     table = by_setting(path)
     names = [n for n in settings() if n in table and n != reference]  # in the bench's order: the default first
     if not names:
         raise SystemExit(f"{path}: no finished runs of a setting (is it a file this script wrote with -o?)")
     first = names[0]
     common = sorted(set.intersection(*(set(table[n]) for n in names)))
-    print(f"{len(common)} tracks run by every setting ({', '.join(names)}), seeds {common[0]}-{common[-1]}")
-    for name in names:
+    ref = table.get(reference, {})
+    everywhere = all(s in ref for s in common)  # the reference on every track: its landings are a rate too
+    print(f"{len(common)} tracks run by every setting ({', '.join(names)}), seeds {common[0]}-{common[-1]}"
+          + (f"; the reference ({reference}) on all of them" if everywhere else ""))  # fmt: skip
+    for name in names + ([reference] if everywhere else []):
         runs = [table[name][s] for s in common]
         cells = [f"{m:.5g} +- {h:.2g} {unit}" for key, scale, unit in MEASURES
                  for m, h in [mean_ci([r[key] * scale for r in runs])]]  # fmt: skip
@@ -108,18 +113,19 @@ def report(path: Path, reference: str) -> None:
         line += f"  CPU median {np.median([r['cpu'] for r in runs]):.1f} s"
         if all("work_reynolds_solves" in r for r in runs):  # the film solves: a cost that the machine's load leaves
             line += f", film solves median {np.median([r['work_reynolds_solves'] for r in runs]):.0f}"
-        if name != first:
-            k0 = sum(table[first][s]["mean_contact_force"] > LANDING for s in common)
+        for other in (first, reference if everywhere else None):
+            if other is None or other == name or name == reference:
+                continue
+            k0 = sum(table[other][s]["mean_contact_force"] > LANDING for s in common)
             p = stats.fisher_exact([[k, len(common) - k], [k0, len(common) - k0]], alternative="greater").pvalue
-            line += f"  Fisher (more than {first}): p = {p:.2g}"
             paired = []
             for key, scale, unit in MEASURES:
-                m, h = mean_ci([(table[name][s][key] - table[first][s][key]) * scale for s in common])
+                m, h = mean_ci([(table[name][s][key] - table[other][s][key]) * scale for s in common])
                 paired.append(f"{m:+.3g} +- {h:.2g} {unit}")
-            line += "\n  " + " " * 21 + f"paired with {first}: " + "  ".join(paired)
+            line += ("\n  " + " " * 21 + f"paired with {other}: " + "  ".join(paired)
+                     + f"  (Fisher, lands more: p = {p:.2g})")  # fmt: skip
         print(line)
     landed = landed_seeds(table, reference)
-    ref = table.get(reference, {})
     print(f"landings (mean contact force > {LANDING * 1e6:g} uN) and the reference ({reference}) on their tracks:")
     for s in landed:
         row = "  ".join(f"{n} {table[n][s]['mean_contact_force'] * 1e6:.2f}" for n in names if s in table[n])

@@ -50,3 +50,18 @@ def test_report_counts_landings_and_pairs_the_tracks(landings, tmp_path, capsys)
 def test_an_unknown_setting_is_refused_with_the_allowed_ones(landings, tmp_path):
     with pytest.raises(SystemExit, match="--setting 'fast' is not allowed: one of 'default'"):
         landings.main(["--setting", "fast", "-o", str(tmp_path / "x.jsonl")])
+
+
+def test_report_pairs_every_setting_with_a_reference_run_on_every_track(landings, tmp_path, capsys):
+    """With the reference on every track its landings are a rate like the settings': it gets a row, and each setting
+    is paired with it (3-sigma 0.5 against 0.45 nm on every track: +0.05 nm)."""
+    runs = (("default", 0.5e-9, 0.1e-6), ("2 dt, secant", 0.5e-9, 9e-6), ("default dt/4", 0.45e-9, 0.1e-6))
+    rows = [{"setting": name, "seed": seed, "status": 0, "cpu": 1.0, "bouncing_3sigma": b, "mean_contact_force": f,
+             "mean_flying_height": 2.1e-9} for name, b, f in runs for seed in (1, 2, 3)]  # fmt: skip
+    path = tmp_path / "runs.jsonl"
+    path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    landings.report(path, "default dt/4")
+    out = capsys.readouterr().out
+    assert "the reference (default dt/4) on all of them" in out
+    assert out.count("paired with default dt/4: +0.05 ") == 2
+    assert "  default dt/4 " in out and "landed 0 " in out and "landed 3 " in out
