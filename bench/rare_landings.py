@@ -9,7 +9,12 @@ and the paired differences.  Records go to a JSON-lines file, one per run; a rer
 
     python bench/rare_landings.py --setting default --setting "2 dt, secant" --seeds 17-200 -o landings.jsonl
     python bench/rare_landings.py --reference -o landings.jsonl      # the reference where a setting landed
+    python bench/rare_landings.py --setting "default dt/4" --seeds 17-200 -o landings.jsonl  # ... or on every track
     python bench/rare_landings.py --report -o landings.jsonl         # the table only
+
+The reference's runs where a setting landed tell whether those tracks land at all; only its runs on every track give
+its own landing rate, against which a setting's is compared (a chaotic landing moves between tracks with any change
+of the numerics).
 
 A default run costs about 11 s of CPU, `2 dt, secant` 7 s and the reference 40 s (2026-11-29).
 """
