@@ -131,6 +131,8 @@ def report(path: Path, reference: str) -> None:
                      + f"  (Fisher, lands more: p = {p:.2g})")  # fmt: skip
         print(line)
     landed = landed_seeds(table, reference)
+    if everywhere:  # and the reference's own landings
+        landed = sorted(set(landed) | {s for s in common if ref[s]["mean_contact_force"] > LANDING})
     print(f"landings (mean contact force > {LANDING * 1e6:g} uN) and the reference ({reference}) on their tracks:")
     for s in landed:
         row = "  ".join(f"{n} {table[n][s]['mean_contact_force'] * 1e6:.2f}" for n in names if s in table[n])

@@ -58,10 +58,13 @@ def test_report_pairs_every_setting_with_a_reference_run_on_every_track(landings
     runs = (("default", 0.5e-9, 0.1e-6), ("2 dt, secant", 0.5e-9, 9e-6), ("default dt/4", 0.45e-9, 0.1e-6))
     rows = [{"setting": name, "seed": seed, "status": 0, "cpu": 1.0, "bouncing_3sigma": b, "mean_contact_force": f,
              "mean_flying_height": 2.1e-9} for name, b, f in runs for seed in (1, 2, 3)]  # fmt: skip
+    rows.append({**rows[-1], "seed": 4, "mean_contact_force": 40e-6})  # the reference lands where the default flies
+    rows += [{**rows[0], "seed": 4}, {**rows[3], "seed": 4}]  # the default flies, the secant lands as everywhere
     path = tmp_path / "runs.jsonl"
     path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     landings.report(path, "default dt/4")
     out = capsys.readouterr().out
     assert "the reference (default dt/4) on all of them" in out
     assert out.count("paired with default dt/4: +0.05 ") == 2
-    assert "  default dt/4 " in out and "landed 0 " in out and "landed 3 " in out
+    assert "  default dt/4 " in out and "landed 1 " in out and "landed 4 " in out  # the secant on every track
+    assert "4 tracks run by every setting" in out and "seed 4: default 0.10  2 dt, secant 9.00 uN; reference" in out
