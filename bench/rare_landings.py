@@ -2,10 +2,11 @@
 
 A rare landing (a track whose mean contact force jumps from a fraction of a uN to tens or hundreds) cannot be seen
 in the bench's 16 tracks, yet it sets most of a flying cell's mean contact force.  This script runs the bench's
-settings (``pipeline.bench.abs.SETTINGS``: the same overrides and step) on many tracks, then the bench's fine
-reference (the default at dt / 4) on every track where one of them landed, and reports per setting the statistics
-with their 95 % intervals, the landings with a Wilson interval, Fisher's exact test against the first setting,
-and the paired differences.  Records go to a JSON-lines file, one per run; a rerun skips the runs already there.
+settings (``pipeline.bench.abs.SETTINGS``, and the ``STUDIED`` ones it does not time: the same overrides and step)
+on many tracks, then the bench's fine reference (the default at dt / 4) on every track where one of them landed,
+and reports per setting the statistics with their 95 % intervals, the landings with a Wilson interval, Fisher's
+exact test against the first setting, and the paired differences.  Records go to a JSON-lines file, one per run; a
+rerun skips the runs already there.
 
     python bench/rare_landings.py --setting default --setting "2 dt, secant" --seeds 17-200 -o landings.jsonl
     python bench/rare_landings.py --reference -o landings.jsonl      # the reference where a setting landed
@@ -48,9 +49,9 @@ def wilson(k: int, n: int, z: float = 1.959964) -> tuple[float, float]:
 
 
 def settings() -> dict[str, tuple[dict, float]]:
-    from pipeline.bench.abs import REFERENCE, SETTINGS
+    from pipeline.bench.abs import REFERENCE, SETTINGS, STUDIED
 
-    return {name: (overrides, factor) for name, _, overrides, factor in (*SETTINGS, REFERENCE)}
+    return {name: (overrides, factor) for name, _, overrides, factor in (*SETTINGS, *STUDIED, REFERENCE)}
 
 
 def run(names: list[str], seeds: list[int], out: Path) -> None:

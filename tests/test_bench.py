@@ -104,10 +104,10 @@ def test_quick_scene2_bench_writes_its_table_and_figure(tmp_path):
 
 def test_every_scene2_setting_loads_with_samples_on_its_own_step():
     """Each bench setting (and the reference) is a valid scene: dt scaled, the output interval a multiple of it."""
-    from pipeline.bench.abs import REFERENCE, SETTINGS, setting_overrides
+    from pipeline.bench.abs import REFERENCE, SETTINGS, STUDIED, setting_overrides
     from pipeline.config import load_scene
 
-    for name, _, overrides, factor in (*SETTINGS, REFERENCE):
+    for name, _, overrides, factor in (*SETTINGS, *STUDIED, REFERENCE):
         scene = load_scene(str(SCENE2_FILE), setting_overrides(str(SCENE2_FILE), {}, overrides, factor))
         num = scene.numerics
         assert num.dt == pytest.approx(load_scene(str(SCENE2_FILE)).numerics.dt * factor, rel=1e-12), name
