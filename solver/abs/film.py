@@ -12,8 +12,9 @@ a film of ``numerics.film_floor`` so that the Reynolds equation stays
 defined (the contact itself is the surface model's business).
 
 Steady solves use Newton's method with the exact Jacobian (sparse direct,
-SuperLU); time steps use the linearly implicit midpoint step with
-approximate factorisation, whose cost is linear in the number of nodes.
+SuperLU); time steps use a linearly implicit step (``numerics.film_scheme``: the
+midpoint rule, or BDF2 over the film's last two steps) with approximate
+factorisation, whose cost is linear in the number of nodes.
 """
 
 from __future__ import annotations
@@ -47,6 +48,10 @@ PTC_TAU_MAX = 1e12
 
 #: Reference spacing of the scaled equation [m].
 H_REF = 10.0e-9
+#: BDF2 (``numerics.film_scheme``) takes a step at most this much longer than the film's last one; a longer step
+#: (after a contact's substeps) is backward Euler.  Variable-step BDF2 is zero-stable for ratios below 1 + sqrt(2);
+#: 2 made no difference to the coupled instability it was suspected of (README, "The film's time scheme").
+BDF2_MAX_RATIO = 1.0
 
 
 class AbsFilm:
@@ -122,6 +127,12 @@ class AbsFilm:
         # the kernels take them as plain tuples, which numba dispatches faster (see AbsFilmConstants)
         self._kernel_film = (tuple(self.constants), tuple(self.scratch), tuple(self.cuts))
         self._pattern = _jacobian_pattern(nx, ny)
+        # BDF2's history: m = P H at the nodes at the start of the last accepted film step and that step's size
+        # (0: none), and what the last call of step() would make of it (commit_step() accepts it)
+        self.bdf2 = scene.numerics.film_scheme == "bdf2"
+        self._history, self._history_h = z3(nx, ny), 0.0
+        self._pending, self._pending_h = z3(nx, ny), 0.0
+        self.last_ratio = 0.0  # BDF2's step ratio of the last step() (of its first film step); 0: backward Euler
         self.reynolds_solves = 0
         self.newton_iterations = 0
         self.factorizations = 0  # sparse LUs of the steady Jacobian (solve_steady reuses one while it contracts)
@@ -338,6 +349,10 @@ class AbsFilm:
         ``inner``: the disk at m - 1 equally spaced times inside the step (``numerics.film_dt``); the film then
         takes m equal steps of dt / m, the attitude moving linearly from q_old to q_new, each one this step.
 
+        With ``numerics.film_scheme`` "bdf2" each film step is a BDF2 step over the committed history
+        (:meth:`commit_step`), or backward Euler where there is none or the step is more than BDF2_MAX_RATIO
+        times the last; the history this step would leave is kept aside until :meth:`commit_step`.
+
         One kernel call (:func:`solver.kernels.film.film_advance`): the links' spacings at mid-step, the step,
         then the force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
         mid-step they lag the attitude by dt / 2, a first-order error that took 17 % of the 728-kHz mode's
@@ -349,15 +364,37 @@ class AbsFilm:
         disks = [np.ascontiguousarray(d, dtype=float)[None] for d in (disk_old, *inner, disk_new)]
         m = len(disks) - 1
         ok = True
+        history, h_last, h = self._history, self._history_h, dt / m
+        self.last_ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
         for k in range(m):
             qa = q_old if k == 0 else q_old + (k / m) * (q_new - q_old)
             qb = q_new if k == m - 1 else q_old + ((k + 1) / m) * (q_new - q_old)
+            ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
+            start = self.P.copy() if self.bdf2 else None
             ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry, state,
-                                 *self._kernel_film)  # fmt: skip
+                                 *self._kernel_film, history, ratio, self.bdf2)  # fmt: skip
             self.reynolds_solves += 1
             if not ok:
                 break
+            if self.bdf2:  # the next film step's history: this one's start (H holds its starting spacing)
+                np.multiply(start, self.H, out=self._pending)
+                history, h_last = self._pending, h
+        self._pending_h = h_last
         return ok
+
+    def commit_step(self) -> None:
+        """Accept the last :meth:`step` as the film's history (BDF2's m_n-1 and step size); nothing for the midpoint."""
+        if self.bdf2:
+            self._history, self._pending = self._pending, self._history
+            self._history_h = self._pending_h
+
+    def history(self) -> tuple[np.ndarray, float]:
+        """A copy of the committed history, for :meth:`set_history` (a step taken back)."""
+        return self._history.copy(), self._history_h
+
+    def set_history(self, saved: tuple[np.ndarray, float]) -> None:
+        self._history[...] = saved[0]
+        self._history_h = saved[1]
 
     @property
     def bearing_number(self) -> float:

@@ -229,6 +229,7 @@ class AbsStepper:
         self.film_dPdq = np.zeros((3, *film.P.shape))
         self.jacobian_age, self.jacobian_h = 0, 0.0
         self.jacobian_q = np.zeros(3)  # the end attitude of the last refresh's film step
+        self.jacobian_ratio = 0.0  # and its BDF2 step ratio (film_scheme 'bdf2': BDF2 and backward Euler differ)
         self.newton_kernel = surface.law == "greenwood_williamson"
         self.damping_ratio = scene.contact.damping_ratio
         self.m_inv = np.linalg.inv(self.M)
@@ -294,13 +295,15 @@ class AbsStepper:
     def snapshot(self) -> tuple:
         """What :meth:`restore` needs to take back the steps taken since (the film's pressure is copied)."""
         return (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev,
-                self.film.P.copy(), self.rho)  # fmt: skip
+                self.film.P.copy(), self.rho, self.film.history())  # fmt: skip
 
     def restore(self, saved: tuple) -> None:
         """Return to the state of :meth:`snapshot` (the film's derivatives are refreshed at the next size)."""
-        (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev, P, rho) = saved
+        (self.t, self.q, self.v, self.a, self.zd, self.f_air, self.sf, self.a_prev, self.h_prev, P, rho,
+         history) = saved  # fmt: skip
         self.set_rho(rho)
         self.film.P[:] = P
+        self.film.set_history(history)
         self.film.set_disk(self.zd)
         if not self.secant:  # (with the secant update the sizes keep their derivatives: _use_size)
             self.jacobian_h = 0.0
@@ -389,6 +392,7 @@ class AbsStepper:
                 return fail("film failed (its linear correction is not positive)")
             q_path = q1
         f_air = f_path + self.film_K @ (q1 - q_path)
+        film.commit_step()
         self.substeps += 1
         self.jacobian_age += 1
         self.a_prev, self.h_prev = a, h
@@ -460,11 +464,12 @@ class AbsStepper:
         The film step P_n -> P_n+1(q_n+1) (from ``P_start``, along q -> q_path, just taken: ``film.P``) is
         differentiated by forward differences that move the face by FILM_PROBE at most:
         ``film_dPdq`` (3, 1, nx, ny) and the forces' ``film_K`` = d f_air / d q_n+1 (3, 3).  Refreshed every
-        ``numerics.film_jacobian_every`` steps, whenever the step size changes, and where ``q_path`` has moved a
-        corner of the trailing edge farther than ``numerics.film_refresh_gap`` from the last refresh's attitude;
-        ``film.P`` is left as found.
+        ``numerics.film_jacobian_every`` steps, whenever the step size (or BDF2's step ratio) changes, and where
+        ``q_path`` has moved a corner of the trailing edge farther than ``numerics.film_refresh_gap`` from the last
+        refresh's attitude; ``film.P`` is left as found.
         """
-        if self.jacobian_age < self.jacobian_every and h == self.jacobian_h:
+        same = h == self.jacobian_h and self.film.last_ratio == self.jacobian_ratio  # the same step (size, scheme)
+        if self.jacobian_age < self.jacobian_every and same:
             if not (self.refresh_gap > 0.0 and self._trailing_gap(q_path - self.jacobian_q) > self.refresh_gap):
                 return True
             self.moved_refreshes += 1
@@ -480,6 +485,7 @@ class AbsStepper:
             self.film_K[:, k] = (film.forces() - f_path) / probe
         film.P[:] = P_path
         self.jacobian_age, self.jacobian_h, self.jacobian_q = 0, h, q_path.copy()
+        self.jacobian_ratio = film.last_ratio
         self.jacobian_refreshes += 1
         if not np.all(np.isfinite(self.film_K)):
             return False

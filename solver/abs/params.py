@@ -348,6 +348,7 @@ FILM_COUPLINGS = ("two_pass", "linearized")
 #: How a linearized step predicts the attitude path of its film step (numerics.film_predictor).
 FILM_PREDICTORS = ("extrapolated", "linear_model", "tangent")
 FILM_UPDATES = ("none", "secant")
+FILM_SCHEMES = ("midpoint", "bdf2")
 
 
 @dataclass(frozen=True)
@@ -417,6 +418,15 @@ class AbsNumerics(Section):
         "step's ends; the slider's balance is still solved once per step (README, 'The film's own step'); 0: one "
         "film step per step",
         lo=0.0,
+    )
+    film_scheme: str = quantity(
+        "midpoint",
+        "",
+        "the film's time step: 'midpoint' (linearly implicit midpoint rule, second order) or 'bdf2' (linearly "
+        "implicit BDF2 over the film's last two steps, second order and L-stable, backward Euler where a step is "
+        "longer than the last): BDF2's mean film force on a rough track is far closer to the converged one, but its "
+        "slider is less damped and lands far more often (README, 'The film's time scheme')",
+        choices=FILM_SCHEMES,
     )
     contact_splits: int = quantity(
         3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8

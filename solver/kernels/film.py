@@ -862,9 +862,64 @@ def film_step(
 
 
 @njit
+def film_step_bdf2(
+    P: np.ndarray,
+    H_old: np.ndarray,
+    H_new: np.ndarray,
+    Hx: np.ndarray,
+    Hy: np.ndarray,
+    Hxe: np.ndarray,
+    Hye: np.ndarray,
+    ct: float,
+    history: np.ndarray,
+    ratio: float,
+    constants: tuple,
+    scratch: tuple,
+    cuts: tuple,
+) -> None:
+    """One linearly implicit BDF2 step in place on P (the film at the old time on entry; Hx, Hy, Hxe, Hye the links'
+    spacings at the end of the step, H_old and H_new the nodes' at both ends).
+
+    With m = P H at the nodes, history = m_n-1 and ratio w = h_n / h_n-1 (variable-step BDF2,
+    a0 = (1 + 2w) / (1 + w), a1 = -(1 + w), a2 = w^2 / (1 + w)):
+
+        ct A (a0 m_n+1 + a1 m_n + a2 m_n-1) + R(P_n+1) = 0,
+
+    linearized about P_n and divided by a0, solved by approximate factorisation in one linear solve:
+
+        (ct A H_new + J(P_n) / a0) delta = -[ct A (P_n H_new + (a1 P_n H_old + a2 m_n-1) / a0) + R(P_n) / a0].
+
+    ratio 0: backward Euler (a0 = 1, a1 = -1, a2 = 0), the first step and after a change of step size that BDF2
+    would not stand (:data:`solver.abs.film.BDF2_MAX_RATIO`).  L-stable, unlike the midpoint step of
+    :func:`film_step`; the fluxes and the squeeze are taken at one time, the step's end (README, "The film's time
+    scheme").  constants, scratch, cuts as :func:`film_step`.
+    """
+    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
+    film = AbsFilmConstants(*constants)
+    buf = AbsFilmScratch(*scratch)
+    w = ratio
+    a0 = (1.0 + 2.0 * w) / (1.0 + w)
+    a1 = -(1.0 + w) / a0
+    a2 = w * w / (1.0 + w) / a0
+    inv_a0 = 1.0 / a0
+    nx, ny = P.shape[1], P.shape[2]
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            ca = ct * film.area[i, j]
+            p = P[0, i, j]
+            buf.diag[0, i, j] = ca * H_new[0, i, j]
+            buf.rhs[0, i, j] = -(ca * (p * H_new[0, i, j] + a1 * p * H_old[0, i, j] + a2 * history[0, i, j])
+                                 + buf.R[0, i, j] * inv_a0)  # fmt: skip
+    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, inv_a0, buf.delta, buf.work)
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            P[0, i, j] += buf.delta[0, i, j]
+
+
+@njit
 def film_advance(
     q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
-    state: tuple, constants: tuple, scratch: tuple, cuts: tuple,
+    state: tuple, constants: tuple, scratch: tuple, cuts: tuple, history: np.ndarray, ratio: float, bdf2: bool,
 ) -> bool:  # fmt: skip
     """One time step of the film, all of it in one call (:meth:`solver.abs.film.AbsFilm.step`): True if every
     node pressure after it is positive (and so finite).
@@ -878,6 +933,9 @@ def film_advance(
     disk_old, disk_new (1, nx, ny) [m]; geometry : (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf,
     surface_xe, surface_ye, inv_href, floor, x cut segments' (seg_x, seg_y, seg_surface), y cut segments' the
     same); state : (P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, disk_mid), written.
+
+    ``bdf2``: the step is :func:`film_step_bdf2` with ``history`` (m_n-1, (1, nx, ny)) and ``ratio``, whose links
+    are those of the end of the step (then filled once, for the step and the force); otherwise the midpoint step.
     """
     (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
      xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
@@ -885,6 +943,14 @@ def film_advance(
     c = AbsFilmCuts(*cuts)
     fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
     fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
+    if bdf2:
+        set_disk(disk_new[0], disk, disk_xf, disk_yf)
+        fill_links(q_new, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href,
+                   floor, Hx, Hy, Hxe, Hye, False)  # fmt: skip
+        fill_cut_points(q_new, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
+        fill_cut_points(q_new, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
+        film_step_bdf2(P, H, H_new, Hx, Hy, Hxe, Hye, ct, history, ratio, constants, scratch, cuts)
+        return positive(P)
     set_disk_mid(disk_old[0], disk_new[0], disk_mid, disk, disk_xf, disk_yf)
     for end in range(2):  # the links at mid-step, then what the force reads at the end
         q = 0.5 * (q_old + q_new) if end == 0 else q_new
@@ -895,6 +961,12 @@ def film_advance(
         if end == 0:
             set_disk(disk_new[0], disk, disk_xf, disk_yf)
             film_step(P, H, H_new, Hx, Hy, Hxe, Hye, ct, constants, scratch, cuts)
+    return positive(P)
+
+
+@njit
+def positive(P: np.ndarray) -> bool:
+    """True if every node pressure is positive (and so finite)."""
     for i in range(P.shape[1]):
         for j in range(P.shape[2]):
             if not P[0, i, j] > 0.0:
