@@ -119,6 +119,20 @@ SETTINGS = (
         {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_dt": 1e-7},
         2.0,
     ),
+    (
+        "2 dt, trapezoid, gap 1 nm",
+        "the default at twice its step (0.2 us) with the film's linearly implicit trapezoidal step "
+        "(numerics.film_scheme 'trapezoid'), its derivatives every 25 steps and also where a trailing corner moved "
+        "1 nm (numerics.film_refresh_gap), contact substeps to dt / 16: the candidate default (README, 'The film's "
+        "time scheme')",
+        {
+            "numerics.film_jacobian_every": 25,
+            "numerics.contact_splits": 4,
+            "numerics.film_scheme": "trapezoid",
+            "numerics.film_refresh_gap": 1e-9,
+        },
+        2.0,
+    ),
 )
 #: Settings studied on many tracks (``bench/rare_landings.py``) and not recommended, so the bench does not time
 #: them (README, "Derivatives refreshed where the pad moves", "The film's time scheme"): the same form as ``SETTINGS``.
@@ -159,6 +173,24 @@ STUDIED = (
             "numerics.film_jacobian_every": 25,
             "numerics.contact_splits": 4,
             "numerics.film_scheme": "bdf2",
+            "numerics.film_refresh_gap": 5e-10,
+        },
+        2.0,
+    ),
+    (
+        "2 dt, trapezoid",
+        "'default 2 dt' with the film's linearly implicit trapezoidal step (numerics.film_scheme 'trapezoid': each "
+        "flux at one time's pressure and spacing, two flux evaluations a step)",
+        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_scheme": "trapezoid"},
+        2.0,
+    ),
+    (
+        "2 dt, trapezoid, refresh gap",
+        "'2 dt, trapezoid' with the film's derivatives refreshed also where a trailing corner moved 0.5 nm",
+        {
+            "numerics.film_jacobian_every": 25,
+            "numerics.contact_splits": 4,
+            "numerics.film_scheme": "trapezoid",
             "numerics.film_refresh_gap": 5e-10,
         },
         2.0,

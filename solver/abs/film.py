@@ -26,7 +26,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from solver.abs.face import AbsGrid, abs_grid
-from solver.abs.params import AbsScene
+from solver.abs.params import FILM_SCHEMES, AbsScene
 from solver.errors import SteadyFilmError
 from solver.grid import control_volume_widths
 from solver.kernels import film as kf
@@ -129,7 +129,9 @@ class AbsFilm:
         self._pattern = _jacobian_pattern(nx, ny)
         # BDF2's history: m = P H at the nodes at the start of the last accepted film step and that step's size
         # (0: none), and what the last call of step() would make of it (commit_step() accepts it)
-        self.bdf2 = scene.numerics.film_scheme == "bdf2"
+        self.scheme = FILM_SCHEMES.index(scene.numerics.film_scheme)  # kf.SCHEME_*
+        self.bdf2 = self.scheme == kf.SCHEME_BDF2
+        self._flux_start = z3(nx, ny)  # the trapezoid's R(P_n) at the step's start (scratch)
         self._history, self._history_h = z3(nx, ny), 0.0
         self._pending, self._pending_h = z3(nx, ny), 0.0
         self.last_ratio = 0.0  # BDF2's step ratio of the last step() (of its first film step); 0: backward Euler
@@ -371,8 +373,9 @@ class AbsFilm:
             qb = q_new if k == m - 1 else q_old + ((k + 1) / m) * (q_new - q_old)
             ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
             start = self.P.copy() if self.bdf2 else None
+            aux = history if self.bdf2 else self._flux_start
             ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry, state,
-                                 *self._kernel_film, history, ratio, self.bdf2)  # fmt: skip
+                                 *self._kernel_film, aux, ratio, self.scheme)  # fmt: skip
             self.reynolds_solves += 1
             if not ok:
                 break

@@ -348,7 +348,8 @@ FILM_COUPLINGS = ("two_pass", "linearized")
 #: How a linearized step predicts the attitude path of its film step (numerics.film_predictor).
 FILM_PREDICTORS = ("extrapolated", "linear_model", "tangent")
 FILM_UPDATES = ("none", "secant")
-FILM_SCHEMES = ("midpoint", "bdf2")
+#: numerics.film_scheme, in the order of solver.kernels.film.SCHEME_*.
+FILM_SCHEMES = ("midpoint", "bdf2", "trapezoid")
 
 
 @dataclass(frozen=True)
@@ -422,10 +423,12 @@ class AbsNumerics(Section):
     film_scheme: str = quantity(
         "midpoint",
         "",
-        "the film's time step: 'midpoint' (linearly implicit midpoint rule, second order) or 'bdf2' (linearly "
+        "the film's time step: 'midpoint' (linearly implicit midpoint rule, second order), 'bdf2' (linearly "
         "implicit BDF2 over the film's last two steps, second order and L-stable, backward Euler where a step is "
-        "longer than the last): BDF2's mean film force on a rough track is far closer to the converged one, but its "
-        "slider is less damped and lands far more often (README, 'The film's time scheme')",
+        "longer than the last: its mean film force on a rough track is far closer to the converged one, but its "
+        "slider is less damped and lands far more often) or 'trapezoid' (linearly implicit trapezoidal rule: each "
+        "flux at the start's or the end's pressure and spacing, a second flux evaluation a step) (README, 'The "
+        "film's time scheme')",
         choices=FILM_SCHEMES,
     )
     contact_splits: int = quantity(

@@ -917,9 +917,57 @@ def film_step_bdf2(
 
 
 @njit
+def film_step_trapezoid(
+    P: np.ndarray,
+    H_old: np.ndarray,
+    H_new: np.ndarray,
+    Hx: np.ndarray,
+    Hy: np.ndarray,
+    Hxe: np.ndarray,
+    Hye: np.ndarray,
+    ct: float,
+    R_start: np.ndarray,
+    constants: tuple,
+    scratch: tuple,
+    cuts: tuple,
+) -> None:
+    """One linearly implicit trapezoidal step in place on P (the film at the old time on entry; Hx, Hy, Hxe, Hye
+    the links' spacings at the end of the step, H_old and H_new the nodes' at both ends; R_start = R(P_n) over
+    the links at the start of the step):
+
+        ct A (P_n+1 H_new - P_n H_old) + (R(P_n; start) + R(P_n+1; end)) / 2 = 0,
+
+    with R(P_n+1; end) linearized about P_n, one linear solve by approximate factorisation:
+
+        (ct A H_new + J(P_n; end) / 2) delta = -[ct A P_n (H_new - H_old) + (R_start + R(P_n; end)) / 2].
+
+    Second order and symmetric in time like :func:`film_step`, but each flux takes the pressure and the spacing
+    at one time, the step's start or its end (README, "The film's time scheme").
+    """
+    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
+    film = AbsFilmConstants(*constants)
+    buf = AbsFilmScratch(*scratch)
+    nx, ny = P.shape[1], P.shape[2]
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            ca = ct * film.area[i, j]
+            buf.diag[0, i, j] = ca * H_new[0, i, j]
+            buf.rhs[0, i, j] = -(ca * P[0, i, j] * (H_new[0, i, j] - H_old[0, i, j])
+                                 + 0.5 * (R_start[0, i, j] + buf.R[0, i, j]))  # fmt: skip
+    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, 0.5, buf.delta, buf.work)
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            P[0, i, j] += buf.delta[0, i, j]
+
+
+#: ``scheme`` of :func:`film_advance` (``numerics.film_scheme``, in this order).
+SCHEME_MIDPOINT, SCHEME_BDF2, SCHEME_TRAPEZOID = 0, 1, 2
+
+
+@njit
 def film_advance(
     q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
-    state: tuple, constants: tuple, scratch: tuple, cuts: tuple, history: np.ndarray, ratio: float, bdf2: bool,
+    state: tuple, constants: tuple, scratch: tuple, cuts: tuple, aux: np.ndarray, ratio: float, scheme: int,
 ) -> bool:  # fmt: skip
     """One time step of the film, all of it in one call (:meth:`solver.abs.film.AbsFilm.step`): True if every
     node pressure after it is positive (and so finite).
@@ -934,8 +982,9 @@ def film_advance(
     surface_xe, surface_ye, inv_href, floor, x cut segments' (seg_x, seg_y, seg_surface), y cut segments' the
     same); state : (P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, disk_mid), written.
 
-    ``bdf2``: the step is :func:`film_step_bdf2` with ``history`` (m_n-1, (1, nx, ny)) and ``ratio``, whose links
-    are those of the end of the step (then filled once, for the step and the force); otherwise the midpoint step.
+    ``scheme`` (SCHEME_*): the midpoint step above; :func:`film_step_bdf2` with ``aux`` its history (m_n-1, (1,
+    nx, ny)) and ``ratio``; or :func:`film_step_trapezoid`, whose R(P_n) over the links at the step's start goes
+    to ``aux`` (scratch).  BDF2's and the trapezoid's links are left at the step's end, for the force.
     """
     (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
      xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
@@ -943,13 +992,23 @@ def film_advance(
     c = AbsFilmCuts(*cuts)
     fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
     fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
-    if bdf2:
-        set_disk(disk_new[0], disk, disk_xf, disk_yf)
-        fill_links(q_new, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href,
-                   floor, Hx, Hy, Hxe, Hye, False)  # fmt: skip
-        fill_cut_points(q_new, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
-        fill_cut_points(q_new, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
-        film_step_bdf2(P, H, H_new, Hx, Hy, Hxe, Hye, ct, history, ratio, constants, scratch, cuts)
+    if scheme != SCHEME_MIDPOINT:
+        for end in range(2):  # the trapezoid's fluxes at the start, then both schemes' at the end
+            if end == 0 and scheme == SCHEME_BDF2:
+                continue
+            q, d = (q_old, disk_old) if end == 0 else (q_new, disk_new)
+            set_disk(d[0], disk, disk_xf, disk_yf)
+            fill_links(q, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href,
+                       floor, Hx, Hy, Hxe, Hye, False)  # fmt: skip
+            fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
+            fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
+            if end == 0:
+                assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
+                aux[:, :, :] = AbsFilmScratch(*scratch).R
+        if scheme == SCHEME_BDF2:
+            film_step_bdf2(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, ratio, constants, scratch, cuts)
+        else:
+            film_step_trapezoid(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, constants, scratch, cuts)
         return positive(P)
     set_disk_mid(disk_old[0], disk_new[0], disk_mid, disk, disk_xf, disk_yf)
     for end in range(2):  # the links at mid-step, then what the force reads at the end
