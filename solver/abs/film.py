@@ -359,7 +359,8 @@ class AbsFilm:
         then the force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
         mid-step they lag the attitude by dt / 2, a first-order error that took 17 % of the 728-kHz mode's
         damping at dt 0.05 us (README, "The film force's time error").  The other links keep their mid-step
-        spacings (what the next step or :meth:`fill_faces` overwrites).
+        spacings (what the next step or :meth:`fill_faces` overwrites).  BDF2 and the trapezoid have a kernel of
+        their own (``film_advance_at_ends``), which leaves every link at the step's end.
         """
         state = (self.P, self.H, self.H_new, self.Hx, self.Hy, self.Hxe, self.Hye, self.disk, self.disk_xf,
                  self.disk_yf, self._disk_mid)  # fmt: skip
@@ -374,8 +375,13 @@ class AbsFilm:
             ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
             start = self.P.copy() if self.bdf2 else None
             aux = history if self.bdf2 else self._flux_start
-            ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry, state,
-                                 *self._kernel_film, aux, ratio, self.scheme)  # fmt: skip
+            if self.scheme == kf.SCHEME_MIDPOINT:
+                ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry,
+                                     state, *self._kernel_film)  # fmt: skip
+            else:
+                ok = kf.film_advance_at_ends(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt,
+                                             self._advance_geometry, state, *self._kernel_film, aux, ratio,
+                                             self.scheme)  # fmt: skip
             self.reynolds_solves += 1
             if not ok:
                 break

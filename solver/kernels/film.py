@@ -862,101 +862,12 @@ def film_step(
 
 
 @njit
-def film_step_bdf2(
-    P: np.ndarray,
-    H_old: np.ndarray,
-    H_new: np.ndarray,
-    Hx: np.ndarray,
-    Hy: np.ndarray,
-    Hxe: np.ndarray,
-    Hye: np.ndarray,
-    ct: float,
-    history: np.ndarray,
-    ratio: float,
-    constants: tuple,
-    scratch: tuple,
-    cuts: tuple,
-) -> None:
-    """One linearly implicit BDF2 step in place on P (the film at the old time on entry; Hx, Hy, Hxe, Hye the links'
-    spacings at the end of the step, H_old and H_new the nodes' at both ends).
-
-    With m = P H at the nodes, history = m_n-1 and ratio w = h_n / h_n-1 (variable-step BDF2,
-    a0 = (1 + 2w) / (1 + w), a1 = -(1 + w), a2 = w^2 / (1 + w)):
-
-        ct A (a0 m_n+1 + a1 m_n + a2 m_n-1) + R(P_n+1) = 0,
-
-    linearized about P_n and divided by a0, solved by approximate factorisation in one linear solve:
-
-        (ct A H_new + J(P_n) / a0) delta = -[ct A (P_n H_new + (a1 P_n H_old + a2 m_n-1) / a0) + R(P_n) / a0].
-
-    ratio 0: backward Euler (a0 = 1, a1 = -1, a2 = 0), the first step and after a change of step size that BDF2
-    would not stand (:data:`solver.abs.film.BDF2_MAX_RATIO`).  L-stable, unlike the midpoint step of
-    :func:`film_step`; the fluxes and the squeeze are taken at one time, the step's end (README, "The film's time
-    scheme").  constants, scratch, cuts as :func:`film_step`.
-    """
-    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
-    film = AbsFilmConstants(*constants)
+def solve_and_add(P: np.ndarray, scratch: tuple, weight: float) -> None:
+    """P += delta, delta from the approximate factorisation of (diag + weight J) delta = rhs (scratch's arrays)."""
     buf = AbsFilmScratch(*scratch)
-    w = ratio
-    a0 = (1.0 + 2.0 * w) / (1.0 + w)
-    a1 = -(1.0 + w) / a0
-    a2 = w * w / (1.0 + w) / a0
-    inv_a0 = 1.0 / a0
-    nx, ny = P.shape[1], P.shape[2]
-    for i in range(1, nx - 1):
-        for j in range(1, ny - 1):
-            ca = ct * film.area[i, j]
-            p = P[0, i, j]
-            buf.diag[0, i, j] = ca * H_new[0, i, j]
-            buf.rhs[0, i, j] = -(ca * (p * H_new[0, i, j] + a1 * p * H_old[0, i, j] + a2 * history[0, i, j])
-                                 + buf.R[0, i, j] * inv_a0)  # fmt: skip
-    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, inv_a0, buf.delta, buf.work)
-    for i in range(1, nx - 1):
-        for j in range(1, ny - 1):
-            P[0, i, j] += buf.delta[0, i, j]
-
-
-@njit
-def film_step_trapezoid(
-    P: np.ndarray,
-    H_old: np.ndarray,
-    H_new: np.ndarray,
-    Hx: np.ndarray,
-    Hy: np.ndarray,
-    Hxe: np.ndarray,
-    Hye: np.ndarray,
-    ct: float,
-    R_start: np.ndarray,
-    constants: tuple,
-    scratch: tuple,
-    cuts: tuple,
-) -> None:
-    """One linearly implicit trapezoidal step in place on P (the film at the old time on entry; Hx, Hy, Hxe, Hye
-    the links' spacings at the end of the step, H_old and H_new the nodes' at both ends; R_start = R(P_n) over
-    the links at the start of the step):
-
-        ct A (P_n+1 H_new - P_n H_old) + (R(P_n; start) + R(P_n+1; end)) / 2 = 0,
-
-    with R(P_n+1; end) linearized about P_n, one linear solve by approximate factorisation:
-
-        (ct A H_new + J(P_n; end) / 2) delta = -[ct A P_n (H_new - H_old) + (R_start + R(P_n; end)) / 2].
-
-    Second order and symmetric in time like :func:`film_step`, but each flux takes the pressure and the spacing
-    at one time, the step's start or its end (README, "The film's time scheme").
-    """
-    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
-    film = AbsFilmConstants(*constants)
-    buf = AbsFilmScratch(*scratch)
-    nx, ny = P.shape[1], P.shape[2]
-    for i in range(1, nx - 1):
-        for j in range(1, ny - 1):
-            ca = ct * film.area[i, j]
-            buf.diag[0, i, j] = ca * H_new[0, i, j]
-            buf.rhs[0, i, j] = -(ca * P[0, i, j] * (H_new[0, i, j] - H_old[0, i, j])
-                                 + 0.5 * (R_start[0, i, j] + buf.R[0, i, j]))  # fmt: skip
-    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, 0.5, buf.delta, buf.work)
-    for i in range(1, nx - 1):
-        for j in range(1, ny - 1):
+    af_solve(buf.diag, buf.Jcx, buf.Jxm, buf.Jxp, buf.Jcy, buf.Jym, buf.Jyp, buf.rhs, weight, buf.delta, buf.work)
+    for i in range(1, P.shape[1] - 1):
+        for j in range(1, P.shape[2] - 1):
             P[0, i, j] += buf.delta[0, i, j]
 
 
@@ -965,9 +876,66 @@ SCHEME_MIDPOINT, SCHEME_BDF2, SCHEME_TRAPEZOID = 0, 1, 2
 
 
 @njit
+def film_step_at_ends(
+    P: np.ndarray, H_old: np.ndarray, H_new: np.ndarray, Hx: np.ndarray, Hy: np.ndarray, Hxe: np.ndarray,
+    Hye: np.ndarray, ct: float, aux: np.ndarray, ratio: float, scheme: int, constants: tuple, scratch: tuple,
+    cuts: tuple,
+) -> None:  # fmt: skip
+    """One BDF2 or trapezoidal step in place on P (the film at the old time on entry; Hx, Hy, Hxe, Hye the links'
+    spacings at the end of the step, H_old and H_new the nodes' at both ends), linearized about P_n and solved by
+    approximate factorisation in one linear solve.
+
+    SCHEME_BDF2, with m = P H at the nodes, aux = m_n-1 and ratio w = h_n / h_n-1 (variable-step BDF2,
+    a0 = (1 + 2w) / (1 + w), a1 = -(1 + w), a2 = w^2 / (1 + w)):
+
+        ct A (a0 m_n+1 + a1 m_n + a2 m_n-1) + R(P_n+1) = 0,
+        (ct A H_new + J(P_n) / a0) delta = -[ct A (P_n H_new + (a1 P_n H_old + a2 m_n-1) / a0) + R(P_n) / a0];
+
+    ratio 0 is backward Euler (a0 = 1, a1 = -1, a2 = 0): the first step, and after a change of step size that BDF2
+    would not stand (:data:`solver.abs.film.BDF2_MAX_RATIO`).  L-stable, unlike the midpoint step of
+    :func:`film_step`.
+
+    SCHEME_TRAPEZOID, with aux = R(P_n) over the links at the start of the step:
+
+        ct A (P_n+1 H_new - P_n H_old) + (R(P_n; start) + R(P_n+1; end)) / 2 = 0,
+        (ct A H_new + J(P_n; end) / 2) delta = -[ct A P_n (H_new - H_old) + (R_start + R(P_n; end)) / 2].
+
+    Symmetric in time like :func:`film_step`, but each flux takes the pressure and the spacing at one time.  Both
+    are of stage order 2, which the midpoint rule (stage order 1) is not (README, "The film's time scheme").
+    constants, scratch, cuts as :func:`film_step`.
+    """
+    assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
+    film = AbsFilmConstants(*constants)
+    buf = AbsFilmScratch(*scratch)
+    nx, ny = P.shape[1], P.shape[2]
+    if scheme == SCHEME_BDF2:
+        w = ratio
+        a0 = (1.0 + 2.0 * w) / (1.0 + w)
+        a1 = -(1.0 + w) / a0
+        a2 = w * w / (1.0 + w) / a0
+        weight = 1.0 / a0
+        for i in range(1, nx - 1):
+            for j in range(1, ny - 1):
+                ca = ct * film.area[i, j]
+                p = P[0, i, j]
+                buf.diag[0, i, j] = ca * H_new[0, i, j]
+                buf.rhs[0, i, j] = -(ca * (p * H_new[0, i, j] + a1 * p * H_old[0, i, j] + a2 * aux[0, i, j])
+                                     + buf.R[0, i, j] * weight)  # fmt: skip
+    else:
+        weight = 0.5
+        for i in range(1, nx - 1):
+            for j in range(1, ny - 1):
+                ca = ct * film.area[i, j]
+                buf.diag[0, i, j] = ca * H_new[0, i, j]
+                buf.rhs[0, i, j] = -(ca * P[0, i, j] * (H_new[0, i, j] - H_old[0, i, j])
+                                     + 0.5 * (aux[0, i, j] + buf.R[0, i, j]))  # fmt: skip
+    solve_and_add(P, scratch, weight)
+
+
+@njit
 def film_advance(
     q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
-    state: tuple, constants: tuple, scratch: tuple, cuts: tuple, aux: np.ndarray, ratio: float, scheme: int,
+    state: tuple, constants: tuple, scratch: tuple, cuts: tuple,
 ) -> bool:  # fmt: skip
     """One time step of the film, all of it in one call (:meth:`solver.abs.film.AbsFilm.step`): True if every
     node pressure after it is positive (and so finite).
@@ -981,10 +949,6 @@ def film_advance(
     disk_old, disk_new (1, nx, ny) [m]; geometry : (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf,
     surface_xe, surface_ye, inv_href, floor, x cut segments' (seg_x, seg_y, seg_surface), y cut segments' the
     same); state : (P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, disk_mid), written.
-
-    ``scheme`` (SCHEME_*): the midpoint step above; :func:`film_step_bdf2` with ``aux`` its history (m_n-1, (1,
-    nx, ny)) and ``ratio``; or :func:`film_step_trapezoid`, whose R(P_n) over the links at the step's start goes
-    to ``aux`` (scratch).  BDF2's and the trapezoid's links are left at the step's end, for the force.
     """
     (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
      xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
@@ -992,24 +956,6 @@ def film_advance(
     c = AbsFilmCuts(*cuts)
     fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
     fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
-    if scheme != SCHEME_MIDPOINT:
-        for end in range(2):  # the trapezoid's fluxes at the start, then both schemes' at the end
-            if end == 0 and scheme == SCHEME_BDF2:
-                continue
-            q, d = (q_old, disk_old) if end == 0 else (q_new, disk_new)
-            set_disk(d[0], disk, disk_xf, disk_yf)
-            fill_links(q, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href,
-                       floor, Hx, Hy, Hxe, Hye, False)  # fmt: skip
-            fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
-            fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
-            if end == 0:
-                assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
-                aux[:, :, :] = AbsFilmScratch(*scratch).R
-        if scheme == SCHEME_BDF2:
-            film_step_bdf2(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, ratio, constants, scratch, cuts)
-        else:
-            film_step_trapezoid(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, constants, scratch, cuts)
-        return positive(P)
     set_disk_mid(disk_old[0], disk_new[0], disk_mid, disk, disk_xf, disk_yf)
     for end in range(2):  # the links at mid-step, then what the force reads at the end
         q = 0.5 * (q_old + q_new) if end == 0 else q_new
@@ -1020,6 +966,45 @@ def film_advance(
         if end == 0:
             set_disk(disk_new[0], disk, disk_xf, disk_yf)
             film_step(P, H, H_new, Hx, Hy, Hxe, Hye, ct, constants, scratch, cuts)
+    for i in range(P.shape[1]):
+        for j in range(P.shape[2]):
+            if not P[0, i, j] > 0.0:
+                return False
+    return True
+
+
+@njit
+def film_advance_at_ends(
+    q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
+    state: tuple, constants: tuple, scratch: tuple, cuts: tuple, aux: np.ndarray, ratio: float, scheme: int,
+) -> bool:  # fmt: skip
+    """:func:`film_advance` of the schemes that take the fluxes at the step's ends (:func:`film_step_at_ends`):
+    True if every node pressure after it is positive.
+
+    The spacings of the control volumes at both ends; for SCHEME_TRAPEZOID the links' and the cut segments' at the
+    start, and R(P_n) over them into ``aux``; then (both schemes) the links at the end, over the disk at the end,
+    which the step and the force read; the step (BDF2: ``aux`` its history m_n-1, ``ratio`` h_n / h_n-1).  A
+    separate kernel, so that the midpoint's (:func:`film_advance`) compiles as before.  Arguments as there.
+    """
+    (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
+     xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
+    P, H, H_new, Hx, Hy, Hxe, Hye, disk, disk_xf, disk_yf, _ = state
+    c = AbsFilmCuts(*cuts)
+    fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
+    fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
+    for end in range(2):  # the trapezoid's fluxes at the start, then both schemes' links at the end
+        if end == 0 and scheme == SCHEME_BDF2:
+            continue
+        q, d = (q_old, disk_old) if end == 0 else (q_new, disk_new)
+        set_disk(d[0], disk, disk_xf, disk_yf)
+        fill_links(q, x, y, pivot_x, pivot_y, surface_xf, surface_yf, surface_xe, surface_ye, disk, inv_href, floor,
+                   Hx, Hy, Hxe, Hye, False)  # fmt: skip
+        fill_cut_points(q, xseg_x, xseg_y, pivot_x, pivot_y, xseg_surface, disk_xf, c.xcell, inv_href, floor, c.xH)
+        fill_cut_points(q, yseg_x, yseg_y, pivot_x, pivot_y, yseg_surface, disk_yf, c.ycell, inv_href, floor, c.yH)
+        if end == 0:
+            assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
+            aux[:, :, :] = AbsFilmScratch(*scratch).R
+    film_step_at_ends(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, ratio, scheme, constants, scratch, cuts)
     return positive(P)
 
 
