@@ -12,6 +12,8 @@ rerun skips the runs already there.
     python bench/rare_landings.py --reference -o landings.jsonl      # the reference where a setting landed
     python bench/rare_landings.py --setting "default dt/4" --seeds 17-200 -o landings.jsonl  # ... or on every track
     python bench/rare_landings.py --report -o landings.jsonl         # the table only
+    python bench/rare_landings.py --time 5 --seeds 201 --setting default --setting "2 dt, trapezoid, gap 1 nm"
+                                                                     # CPU per run, alternated in one process
 
 The reference's runs where a setting landed tell whether those tracks land at all; only its runs on every track give
 its own landing rate, against which a setting's is compared (a chaotic landing moves between tracks with any change
@@ -83,6 +85,37 @@ def run(names: list[str], seeds: list[int], out: Path) -> None:
                   f"{record['mean_contact_force'] * 1e6:.2f} uN, {record['cpu']:.0f} s", flush=True)  # fmt: skip
 
 
+def time_runs(names: list[str], seed: int, repeats: int) -> None:
+    """CPU time of a 1-ms run of each setting on track ``seed``, the settings alternated ``repeats`` times in this
+    process (the kernels loaded and the steady flight solved before): medians, ranges and ratios to the first."""
+    from pipeline.bench.abs import setting_overrides
+    from pipeline.config import load_scene
+    from solver.abs.integrate import simulate_abs
+    from solver.abs.steady import fly_start
+
+    known = settings()
+    overrides = {n: {**setting_overrides(str(SCENE), {}, *known[n]), "disk.seed": seed} for n in names}
+    scenes = {n: load_scene(str(SCENE), o) for n, o in overrides.items()}
+    steady = fly_start(scenes[names[0]])
+    for n in names:  # load (or compile) the kernels outside the timing
+        simulate_abs(load_scene(str(SCENE), overrides[n] | {"numerics.t_end": 4e-6, "numerics.settle_time": 0.0}),
+                     steady=steady)  # fmt: skip
+    cpu: dict[str, list[float]] = {n: [] for n in names}
+    for _ in range(repeats):
+        for n in names:
+            t0 = time.process_time()
+            simulate_abs(scenes[n], steady=steady)
+            cpu[n].append(time.process_time() - t0)
+            print(f"{n}: {cpu[n][-1]:.2f} s", flush=True)
+    base = float(np.median(cpu[names[0]]))
+    for n in names:
+        num = scenes[n].numerics
+        m = float(np.median(cpu[n]))
+        print(f"  {n:40s} CPU median {m:.2f} s ({min(cpu[n]):.2f}-{max(cpu[n]):.2f}), "
+              f"{m / round(num.t_end / num.dt) * 1e3:.3f} ms a step, {m / (num.t_end / 1e-3):.2f} s per simulated ms, "
+              f"ratio {m / base:.3f}")  # fmt: skip
+
+
 def by_setting(path: Path) -> dict[str, dict[int, dict]]:
     table: dict[str, dict[int, dict]] = {}
     for r in read(path):
@@ -151,13 +184,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", default="17-48", help="tracks: 'LO-HI' or '1,3,5'")
     parser.add_argument("--reference", action="store_true", help="run the reference on every landed track")
     parser.add_argument("--report", action="store_true", help="only print the table of -o's runs")
-    parser.add_argument("-o", "--output", type=Path, required=True, help="JSON-lines file of the runs")
+    parser.add_argument("--time", type=int, default=0, metavar="N",
+                        help="only time the settings on the first of --seeds, alternated N times (no -o)")  # fmt: skip
+    parser.add_argument("-o", "--output", type=Path, help="JSON-lines file of the runs")
     args = parser.parse_args(argv)
     known = settings()
     reference = list(known)[-1]
     unknown = [n for n in args.setting if n not in known]
     if unknown:
         raise SystemExit(f"--setting {unknown[0]!r} is not allowed: one of {', '.join(map(repr, known))}")
+    if args.time:
+        if not args.setting:
+            raise SystemExit("--time needs at least one --setting")
+        time_runs(args.setting, parse_range(args.seeds)[0], args.time)
+        return 0
+    if args.output is None:
+        raise SystemExit("-o/--output is required (the JSON-lines file of the runs), except with --time")
     if args.setting and not args.report:
         run(args.setting, parse_range(args.seeds), args.output)
     if args.reference and not args.report:

@@ -123,8 +123,8 @@ SETTINGS = (
         "2 dt, trapezoid, gap 1 nm",
         "the default at twice its step (0.2 us) with the film's linearly implicit trapezoidal step "
         "(numerics.film_scheme 'trapezoid'), its derivatives every 25 steps and also where a trailing corner moved "
-        "1 nm (numerics.film_refresh_gap), contact substeps to dt / 16: the candidate default (README, 'The film's "
-        "time scheme')",
+        "1 nm (numerics.film_refresh_gap), contact substeps to dt / 16; the start's flux carried from the last step "
+        "(numerics.film_start_flux 'carried'): one flux evaluation a step (README, 'The film's time scheme')",
         {
             "numerics.film_jacobian_every": 25,
             "numerics.contact_splits": 4,
@@ -180,8 +180,13 @@ STUDIED = (
     (
         "2 dt, trapezoid",
         "'default 2 dt' with the film's linearly implicit trapezoidal step (numerics.film_scheme 'trapezoid': each "
-        "flux at one time's pressure and spacing, two flux evaluations a step)",
-        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_scheme": "trapezoid"},
+        "flux at one time's pressure and spacing), the start's flux evaluated (two flux evaluations a step)",
+        {
+            "numerics.film_jacobian_every": 25,
+            "numerics.contact_splits": 4,
+            "numerics.film_scheme": "trapezoid",
+            "numerics.film_start_flux": "evaluated",
+        },
         2.0,
     ),
     (
@@ -191,7 +196,21 @@ STUDIED = (
             "numerics.film_jacobian_every": 25,
             "numerics.contact_splits": 4,
             "numerics.film_scheme": "trapezoid",
+            "numerics.film_start_flux": "evaluated",
             "numerics.film_refresh_gap": 5e-10,
+        },
+        2.0,
+    ),
+    (
+        "2 dt, trapezoid, gap 1 nm, evaluated",
+        "'2 dt, trapezoid, gap 1 nm' with the start's flux evaluated over the start's pressure and spacing "
+        "(numerics.film_start_flux 'evaluated'): two flux evaluations a step",
+        {
+            "numerics.film_jacobian_every": 25,
+            "numerics.contact_splits": 4,
+            "numerics.film_scheme": "trapezoid",
+            "numerics.film_start_flux": "evaluated",
+            "numerics.film_refresh_gap": 1e-9,
         },
         2.0,
     ),

@@ -131,7 +131,13 @@ class AbsFilm:
         # (0: none), and what the last call of step() would make of it (commit_step() accepts it)
         self.scheme = FILM_SCHEMES.index(scene.numerics.film_scheme)  # kf.SCHEME_*
         self.bdf2 = self.scheme == kf.SCHEME_BDF2
+        # The trapezoid's history: R(P_n) at the start of the next step, the last accepted step's end residual
+        # carried to its pressure (numerics.film_start_flux 'carried'; valid where _history_h > 0), and the
+        # pressure its step left (commit_step carries it on to the pressure the slider's correction leaves).
+        self.carried = self.scheme == kf.SCHEME_TRAPEZOID and scene.numerics.film_start_flux == "carried"
         self._flux_start = z3(nx, ny)  # the trapezoid's R(P_n) at the step's start (scratch)
+        self._carries = (z3(nx, ny), z3(nx, ny))  # the trapezoid's carried residuals: kept steps', probes'
+        self._P_left = z3(nx, ny)
         self._history, self._history_h = z3(nx, ny), 0.0
         self._pending, self._pending_h = z3(nx, ny), 0.0
         self.last_ratio = 0.0  # BDF2's step ratio of the last step() (of its first film step); 0: backward Euler
@@ -269,6 +275,7 @@ class AbsFilm:
         are small relaxation steps and the last are Newton's.
         """
         self.fill_faces(q)
+        self._history_h = 0.0  # the film is no longer where its history left it
         nx, ny = self.shape
         history: list[float] = []
         P = self.P[0, 1:-1, 1:-1]
@@ -343,7 +350,7 @@ class AbsFilm:
 
     def step(
         self, q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, dt: float,
-        inner: tuple[np.ndarray, ...] = (),
+        inner: tuple[np.ndarray, ...] = (), keep: bool = True,
     ) -> bool:  # fmt: skip
         """Advance P over dt while the attitude moves q_old -> q_new and the disk disk_old -> disk_new (nx, ny) [m];
         True if every node pressure after it is positive.
@@ -353,7 +360,10 @@ class AbsFilm:
 
         With ``numerics.film_scheme`` "bdf2" each film step is a BDF2 step over the committed history
         (:meth:`commit_step`), or backward Euler where there is none or the step is more than BDF2_MAX_RATIO
-        times the last; the history this step would leave is kept aside until :meth:`commit_step`.
+        times the last; the history this step would leave is kept aside until :meth:`commit_step`.  With
+        "trapezoid" and ``numerics.film_start_flux`` "carried" the committed history is the start's flux
+        residual, where there is one (else it is evaluated); the end residual carried to the new pressure is
+        kept aside the same way.  ``keep`` False (a probe of the step, which is not taken) keeps aside nothing.
 
         One kernel call (:func:`solver.kernels.film.film_advance`): the links' spacings at mid-step, the step,
         then the force's link profiles (cut and edge links) at the end of the step, with its pressure: left at
@@ -369,32 +379,49 @@ class AbsFilm:
         ok = True
         history, h_last, h = self._history, self._history_h, dt / m
         self.last_ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
+        carried = self.carried and h_last > 0.0
         for k in range(m):
             qa = q_old if k == 0 else q_old + (k / m) * (q_new - q_old)
             qb = q_new if k == m - 1 else q_old + ((k + 1) / m) * (q_new - q_old)
             ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
             start = self.P.copy() if self.bdf2 else None
-            aux = history if self.bdf2 else self._flux_start
+            if self.bdf2:
+                aux = history
+            else:  # the start's flux: carried in (the committed one, or the last film step's), or evaluated
+                aux = history if carried else self._flux_start
+            carry = self._carries[0 if keep else 1]  # (the kernel reads aux before it writes carry)
             if self.scheme == kf.SCHEME_MIDPOINT:
                 ok = kf.film_advance(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt, self._advance_geometry,
                                      state, *self._kernel_film)  # fmt: skip
             else:
                 ok = kf.film_advance_at_ends(qa, qb, disks[k], disks[k + 1], m * self.sigma / dt,
                                              self._advance_geometry, state, *self._kernel_film, aux, ratio,
-                                             self.scheme)  # fmt: skip
+                                             self.scheme, carried, carry)  # fmt: skip
             self.reynolds_solves += 1
             if not ok:
                 break
             if self.bdf2:  # the next film step's history: this one's start (H holds its starting spacing)
                 np.multiply(start, self.H, out=self._pending)
                 history, h_last = self._pending, h
-        self._pending_h = h_last
+            elif self.carried:  # the next film step's start flux: this one's end residual, carried
+                history, h_last, carried = carry, h, True
+        if keep:
+            self._pending_h = h_last
+            if self.carried and ok:
+                self._pending = history
+                self._P_left[...] = self.P
         return ok
 
     def commit_step(self) -> None:
-        """Accept the last :meth:`step` as the film's history (BDF2's m_n-1 and step size); nothing for the midpoint."""
+        """Accept the last kept :meth:`step` as the film's history: BDF2's m_n-1 and step size, the trapezoid's
+        carried start flux (carried on to the pressure the slider's correction has left since); nothing for the
+        midpoint."""
         if self.bdf2:
             self._history, self._pending = self._pending, self._history
+            self._history_h = self._pending_h
+        elif self.carried:
+            np.subtract(self.P, self._P_left, out=self._P_left)
+            kf.linearized_residual(self._pending, self._kernel_film[1], self._P_left, self._history)
             self._history_h = self._pending_h
 
     def history(self) -> tuple[np.ndarray, float]:

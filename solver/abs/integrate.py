@@ -480,7 +480,7 @@ class AbsStepper:
             film.P[:] = P_start
             q_probe = q_path.copy()
             q_probe[k] += probe
-            film.step(self.q, q_probe, self.zd, zd1, h, self._inner)
+            film.step(self.q, q_probe, self.zd, zd1, h, self._inner, keep=False)
             self.film_dPdq[k] = (film.P - P_path) / probe
             self.film_K[:, k] = (film.forces() - f_path) / probe
         film.P[:] = P_path

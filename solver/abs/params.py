@@ -350,6 +350,8 @@ FILM_PREDICTORS = ("extrapolated", "linear_model", "tangent")
 FILM_UPDATES = ("none", "secant")
 #: numerics.film_scheme, in the order of solver.kernels.film.SCHEME_*.
 FILM_SCHEMES = ("midpoint", "bdf2", "trapezoid")
+#: numerics.film_start_flux: where the trapezoid's flux at a step's start comes from.
+FILM_START_FLUXES = ("carried", "evaluated")
 
 
 @dataclass(frozen=True)
@@ -427,9 +429,18 @@ class AbsNumerics(Section):
         "implicit BDF2 over the film's last two steps, second order and L-stable, backward Euler where a step is "
         "longer than the last: its mean film force on a rough track is far closer to the converged one, but its "
         "slider is less damped and lands far more often) or 'trapezoid' (linearly implicit trapezoidal rule: each "
-        "flux at the start's or the end's pressure and spacing, a second flux evaluation a step) (README, 'The "
-        "film's time scheme')",
+        "flux at the start's or the end's pressure and spacing; the start's as numerics.film_start_flux says) "
+        "(README, 'The film's time scheme')",
         choices=FILM_SCHEMES,
+    )
+    film_start_flux: str = quantity(
+        "carried",
+        "",
+        "the trapezoid's flux residual at a step's start (film_scheme 'trapezoid'): 'carried' (the last accepted "
+        "step's end residual, carried to first order to the pressure the step left: no flux evaluation of its own) "
+        "or 'evaluated' (evaluated again over the start's pressure and spacing: a second flux evaluation a step) "
+        "(README, 'The film's time scheme')",
+        choices=FILM_START_FLUXES,
     )
     contact_splits: int = quantity(
         3, "1", "most halvings of dt that contact_omega_dt may ask for (substeps of dt / 2^contact_splits)", lo=0, hi=8

@@ -977,14 +977,18 @@ def film_advance(
 def film_advance_at_ends(
     q_old: np.ndarray, q_new: np.ndarray, disk_old: np.ndarray, disk_new: np.ndarray, ct: float, geometry: tuple,
     state: tuple, constants: tuple, scratch: tuple, cuts: tuple, aux: np.ndarray, ratio: float, scheme: int,
+    carried: bool, carry: np.ndarray,
 ) -> bool:  # fmt: skip
     """:func:`film_advance` of the schemes that take the fluxes at the step's ends (:func:`film_step_at_ends`):
     True if every node pressure after it is positive.
 
-    The spacings of the control volumes at both ends; for SCHEME_TRAPEZOID the links' and the cut segments' at the
-    start, and R(P_n) over them into ``aux``; then (both schemes) the links at the end, over the disk at the end,
-    which the step and the force read; the step (BDF2: ``aux`` its history m_n-1, ``ratio`` h_n / h_n-1).  A
-    separate kernel, so that the midpoint's (:func:`film_advance`) compiles as before.  Arguments as there.
+    The spacings of the control volumes at both ends; for SCHEME_TRAPEZOID, unless ``carried`` (``aux`` holds
+    R(P_n) already: the last step's end residual carried to its new pressure), the links' and the cut segments'
+    at the start, and R(P_n) over them into ``aux``; then (both schemes) the links at the end, over the disk at the
+    end, which the step and the force read; the step (BDF2: ``aux`` its history m_n-1, ``ratio`` h_n / h_n-1); for
+    SCHEME_TRAPEZOID the end residual carried to the new pressure into ``carry`` (:func:`linearized_residual`),
+    the next step's start flux.  A separate kernel, so that the midpoint's (:func:`film_advance`) compiles as
+    before.  Arguments as there.
     """
     (x, y, pivot_x, pivot_y, storage, surface_xf, surface_yf, surface_xe, surface_ye, inv_href, floor, xseg_x,
      xseg_y, xseg_surface, yseg_x, yseg_y, yseg_surface) = geometry  # fmt: skip
@@ -993,7 +997,7 @@ def film_advance_at_ends(
     fill_spacing(q_old, x, y, pivot_x, pivot_y, storage, disk_old, inv_href, floor, H)
     fill_spacing(q_new, x, y, pivot_x, pivot_y, storage, disk_new, inv_href, floor, H_new)
     for end in range(2):  # the trapezoid's fluxes at the start, then both schemes' links at the end
-        if end == 0 and scheme == SCHEME_BDF2:
+        if end == 0 and (scheme == SCHEME_BDF2 or carried):
             continue
         q, d = (q_old, disk_old) if end == 0 else (q_new, disk_new)
         set_disk(d[0], disk, disk_xf, disk_yf)
@@ -1005,7 +1009,28 @@ def film_advance_at_ends(
             assemble(P, Hx, Hy, Hxe, Hye, constants, scratch, cuts)
             aux[:, :, :] = AbsFilmScratch(*scratch).R
     film_step_at_ends(P, H, H_new, Hx, Hy, Hxe, Hye, ct, aux, ratio, scheme, constants, scratch, cuts)
+    if scheme == SCHEME_TRAPEZOID:
+        buf = AbsFilmScratch(*scratch)
+        linearized_residual(buf.R, scratch, buf.delta, carry)
     return positive(P)
+
+
+@njit
+def linearized_residual(R: np.ndarray, scratch: tuple, d: np.ndarray, out: np.ndarray) -> None:
+    """out = R + J d at the interior nodes, J the Jacobian of the last :func:`assemble` (whole, not its
+    factorisation) and d a change of the pressure, 0 at the edges (the Dirichlet nodes): R carried to first
+    order to P + d.  The edges' rows are 0; out may be R."""
+    buf = AbsFilmScratch(*scratch)
+    nx, ny = d.shape[1], d.shape[2]
+    for i in range(1, nx - 1):
+        for j in range(1, ny - 1):
+            out[0, i, j] = (R[0, i, j] + (buf.Jcx[0, i, j] + buf.Jcy[0, i, j]) * d[0, i, j]
+                            + buf.Jxm[0, i, j] * d[0, i - 1, j] + buf.Jxp[0, i, j] * d[0, i + 1, j]
+                            + buf.Jym[0, i, j] * d[0, i, j - 1] + buf.Jyp[0, i, j] * d[0, i, j + 1])  # fmt: skip
+    out[0, 0, :] = 0.0
+    out[0, nx - 1, :] = 0.0
+    out[0, :, 0] = 0.0
+    out[0, :, ny - 1] = 0.0
 
 
 @njit
