@@ -132,12 +132,13 @@ class AbsFilm:
         self.scheme = FILM_SCHEMES.index(scene.numerics.film_scheme)  # kf.SCHEME_*
         self.bdf2 = self.scheme == kf.SCHEME_BDF2
         # The trapezoid's history: R(P_n) at the start of the next step, the last accepted step's end residual
-        # carried to its pressure (numerics.film_start_flux 'carried'; valid where _history_h > 0), and the
-        # pressure its step left (commit_step carries it on to the pressure the slider's correction leaves).
+        # carried to its pressure (numerics.film_start_flux 'carried'; valid where _history_h > 0 and P is still
+        # _P_history, the pressure it was carried to), and the pressure the last kept step left (commit_step carries
+        # the residual on to the pressure the slider's correction leaves).
         self.carried = self.scheme == kf.SCHEME_TRAPEZOID and scene.numerics.film_start_flux == "carried"
         self._flux_start = z3(nx, ny)  # the trapezoid's R(P_n) at the step's start (scratch)
         self._carries = (z3(nx, ny), z3(nx, ny))  # the trapezoid's carried residuals: kept steps', probes'
-        self._P_left = z3(nx, ny)
+        self._P_left, self._P_history = z3(nx, ny), z3(nx, ny)
         self._history, self._history_h = z3(nx, ny), 0.0
         self._pending, self._pending_h = z3(nx, ny), 0.0
         self.last_ratio = 0.0  # BDF2's step ratio of the last step() (of its first film step); 0: backward Euler
@@ -379,7 +380,8 @@ class AbsFilm:
         ok = True
         history, h_last, h = self._history, self._history_h, dt / m
         self.last_ratio = h / h_last if self.bdf2 and 0.0 < h <= BDF2_MAX_RATIO * h_last else 0.0
-        carried = self.carried and h_last > 0.0
+        # carried in where the film is where its history left it (a P set from outside, as a test may, is not)
+        carried = self.carried and h_last > 0.0 and np.array_equal(self.P, self._P_history)
         for k in range(m):
             qa = q_old if k == 0 else q_old + (k / m) * (q_new - q_old)
             qb = q_new if k == m - 1 else q_old + ((k + 1) / m) * (q_new - q_old)
@@ -423,14 +425,19 @@ class AbsFilm:
             np.subtract(self.P, self._P_left, out=self._P_left)
             kf.linearized_residual(self._pending, self._kernel_film[1], self._P_left, self._history)
             self._history_h = self._pending_h
+            self._P_history[...] = self.P
 
-    def history(self) -> tuple[np.ndarray, float]:
-        """A copy of the committed history, for :meth:`set_history` (a step taken back)."""
-        return self._history.copy(), self._history_h
+    def history(self) -> tuple[np.ndarray, float, np.ndarray]:
+        """A copy of the committed history, for :meth:`set_history` (a step taken back): BDF2's m_n-1 or the
+        trapezoid's start flux, the last step's size (0: none) and the pressure the trapezoid's flux belongs to."""
+        return self._history.copy(), self._history_h, self._P_history.copy()
 
-    def set_history(self, saved: tuple[np.ndarray, float]) -> None:
+    def set_history(self, saved: tuple) -> None:
+        """Restore :meth:`history`'s copy; (array, 0.0) clears the history."""
         self._history[...] = saved[0]
         self._history_h = saved[1]
+        if len(saved) > 2:
+            self._P_history[...] = saved[2]
 
     @property
     def bearing_number(self) -> float:

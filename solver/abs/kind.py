@@ -62,15 +62,20 @@ def tiny() -> AbsScene:
 
 
 def warm_up() -> None:
-    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread, and the two a
-    flying run does not reach: the contact's frequency and the film's secant update (``film_update`` "secant")."""
+    """Load (or compile) the film, slip, surface-force and disk kernels on a tiny run, one thread, and again with the
+    film's trapezoidal step (``film_scheme`` "trapezoid", whose kernels BDF2 shares); and the two a flying run does
+    not reach: the contact's frequency and the film's secant update (``film_update`` "secant")."""
+    import dataclasses
+
     import numpy as np
 
     from ..kernels.film import secant_update
     from ..kernels.newmark import contact_frequency_squared
 
     os.environ["NUMBA_NUM_THREADS"] = "1"
-    simulate_abs(tiny())
+    scene = tiny()
+    simulate_abs(scene)
+    simulate_abs(dataclasses.replace(scene, numerics=dataclasses.replace(scene.numerics, film_scheme="trapezoid")))
     contact_frequency_squared(np.eye(3), -np.eye(3))
     secant_update(np.zeros((3, 1, 2, 2)), np.ones((1, 2, 2)), np.zeros((1, 2, 2)), np.ones(3), np.ones(3))
 
