@@ -464,20 +464,3 @@ def test_newton_kernel_is_the_python_iteration(lowered_step, zeta, monkeypatch):
     if zeta:  # the damping acts: the contact force differs from the undamped law's at the same attitude
         undamped = stepper.surface.forces_on(cells, q_p)
         assert np.abs(sf_p.damping).max() > 0.0 and abs(sf_p.contact / undamped.contact - 1.0) > 1e-6
-
-
-def test_the_refresh_gap_leaves_the_steps_split_for_contact_alone():
-    """numerics.film_refresh_gap refreshes the film step's derivatives where the trailing edge moved, except in the
-    substeps of a step split for contact: a pad bouncing on the asperities moves past any gap every few substeps,
-    and those refreshes made Table I's stuck cell 1.4 times dearer (README, "The trapezoid's start flux, carried").
-    A 10-mm/s drop onto the smooth disk (coarse face, 40 us, no adhesion) with a gap of 1 pm, past which every
-    step moves: the moved refreshes stay within the unsplit steps and the steps taken back (measured 297 against
-    356 + 59), where refreshing in every substep made 1 004.  The drop touches (its steps split) and the gap
-    still refreshes out of contact."""
-    scene = chen_bogy(COARSE | {"disk.rms": 0.0, "initial.zdot": -0.01, "numerics.t_end": 40e-6,
-                                "numerics.settle_time": 0.0, "numerics.film_refresh_gap": 1e-12,
-                                "contact.delta_gamma": 0.0})  # fmt: skip
-    work = simulate_abs(scene).work
-    unsplit = work["substeps"] - work["contact_substeps"]
-    assert work["contact_substeps"] > unsplit > 0, work
-    assert 0 < work["film_jacobians_moved"] <= unsplit + work["contact_redos"], work

@@ -255,7 +255,6 @@ class AbsStepper:
         self.newton = self.substeps = self.halvings = self.film_repasses = self.jacobian_refreshes = 0
         self.contact_substeps = self.contact_redos = self.damped_substeps = 0
         self.contact_level = 0  # halvings of the last step (contact_split_step: no coarsening while in contact)
-        self.split = False  # a substep of a step split for contact is being taken (no refresh-gap refreshes)
         self.residual = 0.0
         self.a_prev, self.h_prev = None, 0.0  # the acceleration and size of the last accepted step
         self.predictor = num.film_predictor if self.linearized else "extrapolated"
@@ -465,16 +464,13 @@ class AbsStepper:
         The film step P_n -> P_n+1(q_n+1) (from ``P_start``, along q -> q_path, just taken: ``film.P``) is
         differentiated by forward differences that move the face by FILM_PROBE at most:
         ``film_dPdq`` (3, 1, nx, ny) and the forces' ``film_K`` = d f_air / d q_n+1 (3, 3).  Refreshed every
-        ``numerics.film_jacobian_every`` steps, whenever the step size (or BDF2's step ratio) changes, and, in a step
-        not split for contact, where ``q_path`` has moved a corner of the trailing edge farther than
-        ``numerics.film_refresh_gap`` from the last refresh's attitude (a pad bouncing on the asperities moves that
-        far every few substeps: on Table I's stuck cell the gap's refreshes made a run 1.4 times dearer); ``film.P``
-        is left as found.
+        ``numerics.film_jacobian_every`` steps, whenever the step size (or BDF2's step ratio) changes, and where
+        ``q_path`` has moved a corner of the trailing edge farther than ``numerics.film_refresh_gap`` from the last
+        refresh's attitude; ``film.P`` is left as found.
         """
         same = h == self.jacobian_h and self.film.last_ratio == self.jacobian_ratio  # the same step (size, scheme)
         if self.jacobian_age < self.jacobian_every and same:
-            gap = self.refresh_gap > 0.0 and not self.split
-            if not (gap and self._trailing_gap(q_path - self.jacobian_q) > self.refresh_gap):
+            if not (self.refresh_gap > 0.0 and self._trailing_gap(q_path - self.jacobian_q) > self.refresh_gap):
                 return True
             self.moved_refreshes += 1
         film = self.film
@@ -745,9 +741,7 @@ def contact_split_step(
             stepper.restart_acceleration()
         elif stepper.h_prev > 0.0 and not math.isclose(h, stepper.h_prev, rel_tol=1e-9):
             stepper.restart_acceleration()
-        stepper.split = j > 0
         failure = stepper.step(h)
-        stepper.split = False
         if failure:
             return failure
         omega = stepper.contact_omega()

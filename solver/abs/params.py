@@ -484,9 +484,8 @@ class AbsNumerics(Section):
         "m",
         "film_coupling 'linearized': the film step's derivatives are refreshed also when the attitude has moved a "
         "corner of the trailing edge farther than this from where they were last refreshed (the film's stiffness "
-        "grows steeply as the trailing pad comes down; README, 'Derivatives refreshed where the pad moves'), except "
-        "in a step split for contact, where a pad bouncing on the asperities moves that far every few substeps "
-        "(README, 'The trapezoid's start flux, carried'); 0: only every film_jacobian_every steps",
+        "grows steeply as the trailing pad comes down; README, 'Derivatives refreshed where the pad moves'); 0: "
+        "only every film_jacobian_every steps",
         lo=0.0,
     )
     film_update: str = quantity(
