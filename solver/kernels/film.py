@@ -966,11 +966,7 @@ def film_advance(
         if end == 0:
             set_disk(disk_new[0], disk, disk_xf, disk_yf)
             film_step(P, H, H_new, Hx, Hy, Hxe, Hye, ct, constants, scratch, cuts)
-    for i in range(P.shape[1]):
-        for j in range(P.shape[2]):
-            if not P[0, i, j] > 0.0:
-                return False
-    return True
+    return positive(P)
 
 
 @njit
