@@ -123,8 +123,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 # Cost model for --dry-run when the ledger has no finished run of the study yet: cost per film node and step
 # on this machine, by scene kind.  rails: measured by `hdi bench` (0.25-0.38 ms per step at 2 x 201 x 21 nodes);
-# abs: the default chen_bogy2007 run (2.18 ms per step at 121 x 101 nodes, dt 0.05 us) of a pad that flies.
-SECONDS_PER_NODE_STEP = {"rails": 4.0e-8, "abs": 1.8e-7}
+# abs: the default chen_bogy2007 run of a pad that flies (1.24 ms per step at 121 x 101 nodes, dt 0.2 us, the
+# film's trapezoid: the bench at 3f0078b; the midpoint at 0.1 us took 1.04 ms, at 0.05 us 2.18 ms).
+SECONDS_PER_NODE_STEP = {"rails": 4.0e-8, "abs": 1.0e-7}
 #: scene-2 regimes whose pad stays on the disk (pipeline.classify.abs_regime): sustained contact, stuck
 HELD_REGIMES = (2, 3)
 

@@ -97,9 +97,10 @@ SCENE2 = DEFAULT_SCENE.with_name("chen_bogy2007.toml")
 
 #: Scene 2's studies in reproduce: the four Table-I sweeps and the regime map, 8 track realisations per cell
 #: (4 in the map, whose flying boundary is then traced per track by bisection); then, unless --quick, the
-#: statistics study (3 time steps x 8 realisations; its dt = 0.025 us runs cost twice the default).  They share
-#: one ledger (``.ledger/scene2``): a run is keyed by its scene, so the default cell that every sweep, the map and
-#: the statistics hold is computed once (268 runs, 198 distinct).
+#: statistics study (3 time steps x 8 realisations; its dt = 0.025 us runs cost 4 times its 0.1-us ones).  The
+#: studies pin the numerics they were run with (the film's midpoint step at 0.1 us, the default until 2026-12-07).
+#: They share one ledger (``.ledger/scene2``): a run is keyed by its scene, so the default cell that every sweep,
+#: the map and the statistics hold is computed once (268 runs, 198 distinct).
 SCENE2_STUDIES = ("pad_width", "preload", "roughness_adhesion", "friction", "pad_preload_map")
 SCENE2_STATISTICS = "statistics"
 

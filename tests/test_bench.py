@@ -97,7 +97,9 @@ def test_quick_scene2_bench_writes_its_table_and_figure(tmp_path):
     assert float(ds["baseline_wall_per_step"]) > 0 and np.all(ds["setting_speedup"].values > 0)
     assert "HEAD" in ds.attrs["baseline_solver"]
     assert ds["bouncing_3sigma_by_seed"].shape == (len(SETTINGS) + 1, 2) and np.all(ds["run_status"].values == 0)
-    assert list(ds["setting"].values)[-1] == "default dt/4"
+    from pipeline.bench.abs import REFERENCE
+
+    assert list(ds["setting"].values)[-1] == REFERENCE[0]
     assert np.all(ds["bouncing_3sigma_ci"].values > 0) and float(ds["mean_flying_height_diff"][-1]) == 0.0
     assert png.stat().st_size > 10_000
 
@@ -112,7 +114,8 @@ def test_every_scene2_setting_loads_with_samples_on_its_own_step():
         num = scene.numerics
         assert num.dt == pytest.approx(load_scene(str(SCENE2_FILE)).numerics.dt * factor, rel=1e-12), name
         assert abs(num.output_interval / num.dt - round(num.output_interval / num.dt)) < 1e-9, name
-        assert abs(num.output_interval - 0.5e-6) <= 0.5 * num.dt, name
+        scene_interval = load_scene(str(SCENE2_FILE)).numerics.output_interval
+        assert abs(num.output_interval - scene_interval) <= 0.5 * num.dt, name
 
 
 def test_scene2_bench_figure_keeps_the_contact_force_panel_above_zero():

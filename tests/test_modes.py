@@ -183,7 +183,7 @@ def test_fly_modes_command_writes_the_modes(tmp_path, capsys):
     sets = [arg for key, value in COARSE.items() for arg in ("--set", f"{key}={value}")]
     assert main(["fly", str(SCENE2_FILE), *sets, "--modes", "-o", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "modes on the air bearing" in text and "f_step, dt = 0.1 us, rho_infinity = 0.9" in text
+    assert "modes on the air bearing" in text and "f_step, dt = 0.2 us, rho_infinity = 0.9" in text
     ds = open_result(out)
     assert list(ds["dof"].values) == ["z", "pitch", "roll"]
     assert ds["mode_shape"].dims == ("mode", "dof")

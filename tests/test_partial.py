@@ -219,15 +219,16 @@ def test_stiff_landing_creates_no_energy(numerics, steps, finer_loses_less):
 
 @pytest.mark.jitless
 def test_the_default_resolves_the_stiff_landing_at_its_step():
-    """At the scene's own step (0.1 us) the default's substeps resolve the landing: none falls back to the damping
+    """At the scene's own step (0.2 us) the default's substeps resolve the landing: none falls back to the damping
     spectral radius, and the kinetic energy is kept to the level of the finer steps.
 
-    With at most 4 substeps (dt / 4, the default until this test) the contact outran the finest one, 7 substeps took
-    rho_infinity_contact = 0 and the landing kept 0.928 of its energy; that damping also held the 80-um trailing
-    pad's sustained contact down (README, "Scene 2 results").  Measured with at most 8: 0.99962, no damped substep
-    (0.99962 at 0.05 us, 0.99372 at 0.025 us).
+    With at most 4 substeps of 0.1 us (25 ns, the default until this test) the contact outran the finest one, 7
+    substeps took rho_infinity_contact = 0 and the landing kept 0.928 of its energy; that damping also held the
+    80-um trailing pad's sustained contact down (README, "Scene 2 results").  Measured with at most 8 of 0.1 us:
+    0.99962, no damped substep (0.99962 at 0.05 us, 0.99372 at 0.025 us); with at most 16 of 0.2 us (12.5 ns, the
+    default since 2026-12-07): 0.99997, 16 contact substeps, 1 redone, none damped.
     """
-    result, ratio = landing({"numerics.output_interval": 0.1e-6})
+    result, ratio = landing({"numerics.output_interval": 0.2e-6})
     assert result.work["contact_damped"] == 0, result.work
     assert result.work["contact_substeps"] > 0
     assert 0.99 < ratio <= 1.0 + 1e-12, ratio

@@ -37,6 +37,7 @@ from pipeline.run.ledger import Ledger
 from pipeline.run.runner import run_case
 from pipeline.study.boundary import BisectionPlanner
 from pipeline.study.spec import axis_range, load_study
+from solver.params import ParameterError
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "studies" / "scenes" / "benson1989.toml"
@@ -663,3 +664,30 @@ def test_every_study_file_smoke_runs_on_a_tiny_grid(tmp_path, path):
     assert out.computed == study.size and out.failed == 0
     ds = open_result(tmp_path / f"{study.name}.nc")
     assert set(ds["stable"].dims) == set(study.dims) and (ds["status"].values >= 0).all()
+
+
+def _dt_study(folder: Path, values: str) -> Path:
+    """A scene-2 study that pins an output interval of 0.5 us (not a whole multiple of the scene's 0.2 us) and has a
+    dt axis."""
+    path = folder / "dt_axis.toml"
+    scene2 = ROOT / "studies" / "scenes" / "chen_bogy2007.toml"
+    path.write_text(f'[study]\nname = "dt_axis"\ntitle = "dt axis"\nscene = "{scene2}"\nrealizations = 1\n\n[set]\n'
+                    f'numerics.output_interval = 0.5e-6\n\n[[axes]]\nkey = "numerics.dt"\ndim = "dt"\n'
+                    f"values = {values}\n")  # fmt: skip
+    return path
+
+
+def test_a_base_valid_only_at_its_dt_axis_values_is_a_study(tmp_path):
+    """The pinned output interval of a study made at another default holds at every dt of its axis, not at the
+    scene's own dt: the study loads, each case has the axis's dt and the pinned interval."""
+    study = load_study(_dt_study(tmp_path, "[0.1e-6, 0.05e-6]"))
+    dts = [case.scene.numerics.dt for case in study.cases()]
+    assert dts == [0.1e-6, 0.05e-6]
+    assert {case.scene.numerics.output_interval for case in study.cases()} == {0.5e-6}
+
+
+def test_a_base_valid_at_no_axis_value_names_the_scene_error(tmp_path):
+    """0.5 us is no whole multiple of 0.3 us either: the base's own error, naming the key and the rule."""
+    with pytest.raises(ParameterError) as err:
+        load_study(_dt_study(tmp_path, "[0.3e-6]"))
+    assert "numerics.output_interval = 5e-07 is not allowed with numerics.dt = 2e-07" in str(err.value)

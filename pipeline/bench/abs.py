@@ -9,8 +9,9 @@ survive this machine's noise:
    run (its own scene file and time step, 0.2 us at c3337da) in a subprocess, one run per round between the rounds
    of the settings; each setting's cost is reported per step, per simulated millisecond and as a ratio to that
    baseline per simulated millisecond.  Without git or the ref the ratio is skipped, and the bench says why.
-2. Accuracy over track realisations.  Every setting and a fine reference (``REFERENCE``: the default at dt / 4,
-   the reference of ``studies/statistics.toml``) run the 1-ms default on ``seeds`` tracks (disk.seed = 1 .. n).
+2. Accuracy over track realisations.  Every setting and a fine reference (``REFERENCE``: the film's midpoint step
+   at 0.025 us, the finest step of ``studies/statistics.toml``) run the 1-ms default on ``seeds`` tracks (disk.seed
+   = 1 .. n).
    A seed is the same track at any dt and setting, so the runs pair: the mean and 95 % CI (Student t) of the
    bouncing 3-sigma, mean contact force and mean flying height of each setting, and of its paired differences
    with the reference and with the default; a setting agrees with the reference on a statistic when the CI of
@@ -46,178 +47,175 @@ from solver.abs.steady import fly_start
 
 #: (label, nx, ny, dt [s]) of the grid and time-step cases; the last one is the reference.
 CASES = (
-    ("coarse 81x67, dt 0.1 us", 81, 67, 0.1e-6),
+    ("coarse 81x67, dt 0.2 us", 81, 67, 0.2e-6),
+    ("default 121x101, dt 0.2 us", 121, 101, 0.2e-6),
     ("default 121x101, dt 0.1 us", 121, 101, 0.1e-6),
     ("default 121x101, dt 0.05 us", 121, 101, 0.05e-6),
-    ("default 121x101, dt 0.025 us", 121, 101, 0.025e-6),
-    ("fine 181x151, dt 0.1 us", 181, 151, 0.1e-6),
+    ("fine 181x151, dt 0.2 us", 181, 151, 0.2e-6),
     ("reference 241x201, dt 0.025 us", 241, 201, 0.025e-6),
 )
-QUICK = (("coarse 81x67, dt 0.1 us", 81, 67, 0.1e-6), ("reference 81x67, dt 0.05 us", 81, 67, 0.05e-6))
+QUICK = (("coarse 81x67, dt 0.2 us", 81, 67, 0.2e-6), ("reference 81x67, dt 0.1 us", 81, 67, 0.1e-6))
 
+#: The scene-2 default from 2026-11-28 to 2026-12-07, at dt 0.1 us (a dt factor of 0.5 on the scene's 0.2 us): the
+#: film's midpoint step, its derivatives every 50 steps (5 us), contact substeps to dt / 8 (12.5 ns), no refresh gap.
+MIDPOINT = {"numerics.film_scheme": "midpoint", "numerics.film_jacobian_every": 50, "numerics.contact_splits": 3,
+            "numerics.film_refresh_gap": 0.0}  # fmt: skip
+#: The midpoint at 0.2 us (a factor of 1): the derivatives every 25 steps (5 us), contact substeps to dt / 16.
+MIDPOINT_2DT = MIDPOINT | {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4}
 #: The scene-2 default until November 2026 (dt 0.05 us with these): fixed steps, rho_inf 0.5 to damp the contact,
 #: the film advanced along the extrapolated acceleration's path.
-PREVIOUS_DEFAULT = {"numerics.rho_infinity": 0.5, "numerics.contact_omega_dt": 0.0, "numerics.film_jacobian_every": 100,
-                    "numerics.film_predictor": "extrapolated"}  # fmt: skip
+PREVIOUS_DEFAULT = MIDPOINT | {"numerics.rho_infinity": 0.5, "numerics.contact_omega_dt": 0.0,
+                               "numerics.film_jacobian_every": 100,
+                               "numerics.film_predictor": "extrapolated"}  # fmt: skip
 
-#: (name, description, overrides, dt factor) of the compared settings, on the scene's grid and dt x factor.
+#: (name, description, overrides, dt factor) of the compared settings, on the scene's grid and dt x factor (the
+#: scene's dt is 0.2 us).
 SETTINGS = (
     (
         "default",
-        "the scene's numerics: dt 0.1 us, rho_inf 0.9, contact substeps to omega_c h <= 0.5 (at most 8), the film's "
-        "derivatives every 50 steps, the film advanced along the step's solution with the film on its tangent",
+        "the scene's numerics: dt 0.2 us, the film's trapezoidal step with its start flux carried, rho_inf 0.9, "
+        "contact substeps to omega_c h <= 0.5 (at most 16), the film's derivatives every 25 steps and where a "
+        "trailing corner moved 1 nm, the film advanced along the step's solution with the film on its tangent",
         {},
         1.0,
     ),
     (
-        "extrapolated",
-        "the default until 2026-11-28: the scene's numerics with the film advanced along the extrapolated "
-        "acceleration's path",
-        {"numerics.film_predictor": "extrapolated"},
-        1.0,
-    ),
-    (
-        "previous default",
-        "the default until November 2026: dt 0.05 us, rho_inf 0.5, fixed steps, the film's derivatives every 100 "
-        "steps, the extrapolated path",
-        PREVIOUS_DEFAULT,
+        "midpoint 0.1 us",
+        "the default from 2026-11-28 to 2026-12-07: dt 0.1 us, the film's midpoint step, its derivatives every 50 "
+        "steps, contact substeps to dt / 8",
+        MIDPOINT,
         0.5,
     ),
     (
-        "default 2 dt",
-        "the default at twice its step (0.2 us): the film's derivatives every 25 steps (5 us, as the default's), "
-        "contact substeps to dt / 16 (12.5 ns, as the default's finest)",
-        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4},
-        2.0,
+        "previous default",
+        "the default until November 2026: dt 0.05 us, the midpoint, rho_inf 0.5, fixed steps, the film's "
+        "derivatives every 100 steps, the extrapolated path",
+        PREVIOUS_DEFAULT,
+        0.25,
     ),
     (
-        "1.5 dt, film split",
-        "the default at 1.5 times its step (0.15 us): the film's derivatives every 33 steps (5 us), contact substeps "
-        "to dt / 16 (9.4 ns), and a step split where the film is stiffer than omega_f h = 1 (numerics.film_omega_dt: "
-        "a pad near sustained contact; the default face's 728-kHz mode is at 0.76-0.80)",
-        {"numerics.film_jacobian_every": 33, "numerics.contact_splits": 4, "numerics.film_omega_dt": 1.0},
-        1.5,
-    ),
-    (
-        "2 dt, secant",
-        "the default at twice its step (0.2 us) with the film's derivatives corrected by the secant of every re-pass "
-        "(numerics.film_update 'secant', film_repass 0.02 nm) and kept per step size, refreshed every 25 steps (5 "
-        "us); contact substeps to dt / 16 (12.5 ns)",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
-            "numerics.film_repass": 2e-11,
-            "numerics.film_update": "secant",
-        },
-        2.0,
-    ),
-    (
-        "2 dt, film at dt",
-        "the default at twice its step (0.2 us) with the film advanced in two steps of 0.1 us within each "
-        "(numerics.film_dt 0.1 us: the slider's balance solved once per 0.2 us, the film over the track sampled "
-        "every 0.1 us); derivatives every 25 steps (5 us), contact substeps to dt / 16 (12.5 ns)",
-        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_dt": 1e-7},
-        2.0,
-    ),
-    (
-        "2 dt, trapezoid, gap 1 nm",
-        "the default at twice its step (0.2 us) with the film's linearly implicit trapezoidal step "
-        "(numerics.film_scheme 'trapezoid'), its derivatives every 25 steps and also where a trailing corner moved "
-        "1 nm (numerics.film_refresh_gap), contact substeps to dt / 16; the start's flux carried from the last step "
-        "(numerics.film_start_flux 'carried'): one flux evaluation a step (README, 'The film's time scheme')",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
-            "numerics.film_scheme": "trapezoid",
-            "numerics.film_refresh_gap": 1e-9,
-        },
-        2.0,
+        "midpoint 0.2 us",
+        "the film's midpoint step at 0.2 us: its derivatives every 25 steps (5 us), contact substeps to dt / 16 "
+        "(12.5 ns), no refresh gap",
+        MIDPOINT_2DT,
+        1.0,
     ),
 )
 #: Settings studied on many tracks (``bench/rare_landings.py``) and not recommended, so the bench does not time
 #: them (README, "Derivatives refreshed where the pad moves", "The film's time scheme"): the same form as ``SETTINGS``.
+#: Their names are those of their day, relative to the default of then, the midpoint at 0.1 us ("2 dt": 0.2 us).
 STUDIED = (
     (
-        "default, refresh gap",
-        "the default with the film's derivatives refreshed also where the attitude has moved a corner of the trailing "
-        "edge 0.5 nm from their last refresh (numerics.film_refresh_gap), the test of whether stale derivatives of a "
-        "pad coming down make the rare landings (they do not: the fine reference lands as often)",
-        {"numerics.film_refresh_gap": 5e-10},
+        "extrapolated",
+        "the default until 2026-11-28: the midpoint at 0.1 us with the film advanced along the extrapolated "
+        "acceleration's path",
+        MIDPOINT | {"numerics.film_predictor": "extrapolated"},
+        0.5,
+    ),
+    (
+        "1.5 dt, film split",
+        "the midpoint at 0.15 us: the film's derivatives every 33 steps (5 us), contact substeps to dt / 16 (9.4 "
+        "ns), and a step split where the film is stiffer than omega_f h = 1 (numerics.film_omega_dt: a pad near "
+        "sustained contact; the default face's 728-kHz mode is at 0.76-0.80)",
+        MIDPOINT | {"numerics.film_jacobian_every": 33, "numerics.contact_splits": 4, "numerics.film_omega_dt": 1.0},
+        0.75,
+    ),
+    (
+        "2 dt, secant",
+        "the midpoint at 0.2 us with the film's derivatives corrected by the secant of every re-pass "
+        "(numerics.film_update 'secant', film_repass 0.02 nm) and kept per step size, refreshed every 25 steps (5 "
+        "us); contact substeps to dt / 16 (12.5 ns)",
+        MIDPOINT_2DT | {"numerics.film_repass": 2e-11, "numerics.film_update": "secant"},
         1.0,
+    ),
+    (
+        "2 dt, film at dt",
+        "the midpoint at 0.2 us with the film advanced in two steps of 0.1 us within each (numerics.film_dt 0.1 us: "
+        "the slider's balance solved once per 0.2 us, the film over the track sampled every 0.1 us); derivatives "
+        "every 25 steps (5 us), contact substeps to dt / 16 (12.5 ns)",
+        MIDPOINT_2DT | {"numerics.film_dt": 1e-7},
+        1.0,
+    ),
+    (
+        "default, refresh gap",
+        "the midpoint at 0.1 us with the film's derivatives refreshed also where the attitude has moved a corner of "
+        "the trailing edge 0.5 nm from their last refresh (numerics.film_refresh_gap), the test of whether stale "
+        "derivatives of a pad coming down make the rare landings (they do not: the fine reference lands as often)",
+        MIDPOINT | {"numerics.film_refresh_gap": 5e-10},
+        0.5,
     ),
     (
         "2 dt, secant, refresh gap",
         "'2 dt, secant' with the film's derivatives refreshed also where the attitude has moved a corner of the "
         "trailing edge 0.5 nm from their last refresh (numerics.film_refresh_gap)",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
-            "numerics.film_repass": 2e-11,
-            "numerics.film_update": "secant",
-            "numerics.film_refresh_gap": 5e-10,
-        },
-        2.0,
+        MIDPOINT_2DT
+        | {"numerics.film_repass": 2e-11, "numerics.film_update": "secant", "numerics.film_refresh_gap": 5e-10},
+        1.0,
     ),
     (
         "2 dt, bdf2",
-        "'default 2 dt' with the film's BDF2 step (numerics.film_scheme 'bdf2'), whose mean film force on the rough "
-        "track is far closer to the converged one (README, 'The film's time scheme': every track bounces)",
-        {"numerics.film_jacobian_every": 25, "numerics.contact_splits": 4, "numerics.film_scheme": "bdf2"},
-        2.0,
+        "the midpoint at 0.2 us with the film's BDF2 step instead (numerics.film_scheme 'bdf2'), whose mean film "
+        "force on the rough track is far closer to the converged one (README, 'The film's time scheme': every track "
+        "bounces)",
+        MIDPOINT_2DT | {"numerics.film_scheme": "bdf2"},
+        1.0,
     ),
     (
         "2 dt, bdf2, refresh gap",
         "'2 dt, bdf2' with the film's derivatives refreshed also where a trailing corner moved 0.5 nm (flies, but "
         "lands a track in seven)",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
-            "numerics.film_scheme": "bdf2",
-            "numerics.film_refresh_gap": 5e-10,
-        },
-        2.0,
+        MIDPOINT_2DT | {"numerics.film_scheme": "bdf2", "numerics.film_refresh_gap": 5e-10},
+        1.0,
     ),
     (
         "2 dt, trapezoid",
-        "'default 2 dt' with the film's linearly implicit trapezoidal step (numerics.film_scheme 'trapezoid': each "
-        "flux at one time's pressure and spacing), the start's flux evaluated (two flux evaluations a step)",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
-            "numerics.film_scheme": "trapezoid",
-            "numerics.film_start_flux": "evaluated",
-        },
-        2.0,
+        "the midpoint at 0.2 us with the film's linearly implicit trapezoidal step instead (numerics.film_scheme "
+        "'trapezoid': each flux at one time's pressure and spacing), the start's flux evaluated (two flux "
+        "evaluations a step), no refresh gap",
+        MIDPOINT_2DT | {"numerics.film_scheme": "trapezoid", "numerics.film_start_flux": "evaluated"},
+        1.0,
     ),
     (
         "2 dt, trapezoid, refresh gap",
         "'2 dt, trapezoid' with the film's derivatives refreshed also where a trailing corner moved 0.5 nm",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
+        MIDPOINT_2DT
+        | {
             "numerics.film_scheme": "trapezoid",
             "numerics.film_start_flux": "evaluated",
             "numerics.film_refresh_gap": 5e-10,
         },
-        2.0,
+        1.0,
+    ),
+    (
+        "2 dt, trapezoid, gap 1 nm",
+        "the default's numerics spelt out (the name it was studied under before it became the default, 2026-12-07): "
+        "the trapezoid at 0.2 us, its start flux carried, the derivatives every 25 steps and where a trailing "
+        "corner moved 1 nm, contact substeps to dt / 16",
+        MIDPOINT_2DT
+        | {
+            "numerics.film_scheme": "trapezoid",
+            "numerics.film_start_flux": "carried",
+            "numerics.film_refresh_gap": 1e-9,
+        },
+        1.0,
     ),
     (
         "2 dt, trapezoid, gap 1 nm, evaluated",
         "'2 dt, trapezoid, gap 1 nm' with the start's flux evaluated over the start's pressure and spacing "
         "(numerics.film_start_flux 'evaluated'): two flux evaluations a step",
-        {
-            "numerics.film_jacobian_every": 25,
-            "numerics.contact_splits": 4,
+        MIDPOINT_2DT
+        | {
             "numerics.film_scheme": "trapezoid",
             "numerics.film_start_flux": "evaluated",
             "numerics.film_refresh_gap": 1e-9,
         },
-        2.0,
+        1.0,
     ),
 )
-#: The fine reference of the accuracy runs (not timed): the default at a quarter of its step (0.025 us), whose
-#: generalized-alpha damping of the 728-kHz mode is 1e-7 against its physical 1.58e-3.
-REFERENCE = ("default dt/4", "fine reference: the default at a quarter of its step", {}, 0.25)
+#: The fine reference of the accuracy runs (not timed): the midpoint at 0.025 us (the reference of the bench's runs
+#: before 2026-12-07 under the name "default dt/4"), whose generalized-alpha damping of the 728-kHz mode is 1e-7
+#: against its physical 1.58e-3.
+REFERENCE = ("fine reference", "fine reference: the film's midpoint step at 0.025 us", MIDPOINT, 0.125)
 #: The setting the bench recommends (the scene default).
 RECOMMENDED = "default"
 #: Run statistics compared over the seeds, with their units.
@@ -281,7 +279,7 @@ def run_bench(args: argparse.Namespace) -> int:
 
 def setting_overrides(scene_path: str, run: dict[str, Any], overrides: dict[str, Any], dt_factor: float):
     """A setting's overrides on top of ``run``: its own, and dt scaled by dt_factor, with the output interval the
-    nearest whole multiple of it to the scene's (0.4 us at dt 0.2 us for the scene's 0.5)."""
+    nearest whole multiple of it to the scene's (0.45 us at dt 0.15 us for the scene's 0.4)."""
     numerics = load_scene(scene_path, run).numerics
     dt = numerics.dt * dt_factor
     interval = max(1, round(numerics.output_interval / dt)) * dt

@@ -303,12 +303,23 @@ def load_study(
     base = apply_overrides(scene_data, _flatten(fixed), source=f"{path} [set]")
     cli = list(overrides or [])
     base = apply_overrides(base, cli, source="--set")
-    scene_from_dict(base, source=f"{scene_path} with the study's [set] and --set")
-
     raw_axes = data.get("axes", [])
     if not isinstance(raw_axes, list) or not raw_axes:
         raise _study_error(path, "[[axes]]", "a study needs at least one axis")
     axes = tuple(_parse_axis(path, n, raw, base.get("kind", DEFAULT_KIND)) for n, raw in enumerate(raw_axes))
+    valid = base  # the scene the axes' values are checked against, one axis at a time
+    try:
+        scene_from_dict(base, source=f"{scene_path} with the study's [set] and --set")
+    except ParameterError:
+        # A base that holds only with its axes' values (an output interval that is a whole multiple of every dt on
+        # a dt axis, but not of the scene's own dt) is a study: every case is checked below.  Else the base's error.
+        first = apply_overrides(base, {a.key: a.values[0] for a in axes}, source=str(path))
+        try:
+            scene_from_dict(first, source=str(path))
+        except ParameterError:
+            scene_from_dict(base, source=f"{scene_path} with the study's [set] and --set")
+            raise
+        valid = first
     for attr in ("key", "dim"):
         seen = [getattr(a, attr) for a in axes]
         dup = {s for s in seen if seen.count(s) > 1}
@@ -372,12 +383,13 @@ def load_study(
         multifidelity_axes=cheap_axes,
         figure=figure,
     )
-    # Every value of every axis must make a valid scene on its own: check each axis value
-    # against the base scene now, so that a bad value fails before any run.
+    # Every value of every axis must make a valid scene on its own: check each axis value against the base scene
+    # (or the base at the axes' first values, where it holds only with them) now, so that a bad value fails before
+    # any run.
     for a in axes:
         for v in a.values:
             try:
-                scene_from_dict(apply_overrides(base, {a.key: v}, source=str(path)), source=str(path))
+                scene_from_dict(apply_overrides(valid, {a.key: v}, source=str(path)), source=str(path))
             except ParameterError as err:
                 raise _study_error(path, f"axis {a.key!r}", f"value {v!r} is not allowed: {err}") from None
     if mode == "grid":
