@@ -158,11 +158,6 @@ PARAMETER_ERRORS = {
         lambda d: d["numerics"].update(film_omega_dt=1.0, contact_omega_dt=0.0),
         ["numerics.film_omega_dt", "1.0", "contact_omega_dt"],
     ),
-    "gap_step negative": (lambda d: d["numerics"].update(gap_step=-0.25), ["numerics.gap_step", "-0.25"]),
-    "gap_step without contact substeps": (
-        lambda d: d["numerics"].update(gap_step=0.25, contact_omega_dt=0.0),
-        ["numerics.gap_step", "0.25", "contact_omega_dt"],
-    ),
     "unknown kind": (lambda d: d.update(kind="nonsense"), ["kind", "'nonsense'"]),
 }
 

@@ -100,16 +100,6 @@ the default face's 728-kHz mode has omega_f h = 1.01-1.06, and the 80-um trailin
 0.96 at dt 0.1 us), where its pitch mode grew from the first microseconds and flew the pad off at tens of nm;
 refreshed every step it ran through (README, "A step the film can follow").
 
-``numerics.gap_step`` > 0 splits steps the same way where the pad moves fast near the disk: |ds/dt| h <= gap_step
-max(s, eps), s the smallest spacing of the face to the resolved disk and ds/dt its rate (the attitude's), eps
-``contact.equilibrium_spacing``, at the start and at each substep's end; it does not hold the level from step to
-step.  The adhesion law (h^-3) and the asperity contact are steep in the spacing, and a step that closes or opens
-much of the gap integrates them from its ends: a flat face pulled in by the adhesion gains 13 % of its potential
-drop by 1.5 nm at fixed steps of 0.1 us, 1.4 % with gap_step 0.25 and 0.6 % with 0.125 (``tests/test_partial.py``),
-and the ringing pad of ``bench/impact_ringing.py`` loses energy in every impact: its flying height's standard
-deviation over 20-50 us is 0.60 nm (30 %) below a 6.25-ns reference at the default, 0.10 nm with gap_step 0.25
-(README, "Impacts near the disk: the gap step"); off by default.
-
 ``numerics.film_update = "secant"`` keeps the derivatives fresh without refreshing them: each re-pass of the film
 (the corrected attitude moved a corner more than ``numerics.film_repass`` from the predicted path) gives two film
 steps from the same start and disk along paths dq apart, and Broyden's rank-one update makes S and K_f reproduce
@@ -235,8 +225,6 @@ class AbsStepper:
         self._sizes: dict[float, list] = {}
         self.size_memory = num.film_jacobian_every * num.dt  # a size's derivatives are refreshed after this [s]
         self.film_omega = 0.0  # omega_f [rad/s]: sqrt of the largest |eigenvalue| of M^-1 K_f at the last refresh
-        self.gap_step = num.gap_step  # largest fraction of the smallest spacing the face may move in a step
-        self.gap_floor = scene.contact.equilibrium_spacing  # [m] the spacing the fraction is taken of, at least
         self.film_K = np.zeros((3, 3))
         self.film_dPdq = np.zeros((3, *film.P.shape))
         self.jacobian_age, self.jacobian_h = 0, 0.0
@@ -333,23 +321,6 @@ class AbsStepper:
             lam = knewmark.contact_frequency_squared(self.m_inv, sf.dfdq)
             self._omega_of, self._omega = sf, math.sqrt(lam) if lam > 0.0 else 0.0
         return self._omega
-
-    def gap_splits(self, dt: float, most: int) -> int:
-        """Fewest halvings j <= most of dt that keep the face's lowest cell within ``numerics.gap_step`` of its spacing.
-
-        At its present rate (the attitude's, the disk held): |ds/dt| dt / 2^j <= gap_step max(s, eps), s the smallest
-        spacing of the face's cells to the resolved disk, eps ``contact.equilibrium_spacing``.  0 when gap_step is 0.
-        """
-        if self.gap_step <= 0.0:
-            return 0
-        b = self.surface.b
-        spacing = self.surface.surface + self.q @ b - self.zd.ravel()
-        i = int(np.argmin(spacing))
-        travel = abs(float(self.v @ b[:, i])) * dt
-        allowed = self.gap_step * max(float(spacing[i]), self.gap_floor)
-        if travel <= allowed:
-            return 0
-        return min(most, math.ceil(math.log2(travel / allowed)))
 
     def _advance(self, h: float, depth: int) -> str:
         """Advance by h; on a failed film or Newton solve, restore the film and take two halves.  "" on success."""
@@ -731,7 +702,6 @@ def contact_split_step(
     rho: float,
     rho_contact: float,
     film_limit: float = 0.0,
-    gap: bool = False,
 ) -> str | None:
     """Advance from t0 by dt in 2^j equal substeps, j set by the contact's frequency (``numerics.contact_omega_dt``).
 
@@ -757,8 +727,6 @@ def contact_split_step(
         j = max(j, stepper.contact_level)
     if film_limit > 0.0:
         j = max(j, contact_splits_needed(stepper.film_omega, dt, film_limit, most))
-    if gap:
-        j = max(j, stepper.gap_splits(dt, most))
     k = 0  # substeps of dt / 2^j taken
     damp_next = False  # the substep is redone with rho_contact: its end was unresolved
     while k < 2**j:
@@ -780,8 +748,6 @@ def contact_split_step(
         j_end = contact_splits_needed(omega, dt, limit, most)
         if film_limit > 0.0:  # the film's frequency as refreshed in this substep (the run's first, a stiffening)
             j_end = max(j_end, contact_splits_needed(stepper.film_omega, dt, film_limit, most))
-        if gap:  # the face's lowest point at the substep's end, at its rate there
-            j_end = max(j_end, stepper.gap_splits(dt, most))
         if j_end > j and saved is not None and j < most:
             stepper.restore(saved)
             stepper.contact_redos += 1
@@ -831,8 +797,7 @@ def simulate_abs(scene: AbsScene, steady: AbsSteady | None = None, profile=None)
         stepper.t = n * dt  # on the grid: no round-off accumulates over the run
         if num.contact_omega_dt > 0.0:
             failure = contact_split_step(stepper, n * dt, dt, num.contact_omega_dt, num.contact_splits,
-                                         num.rho_infinity, num.rho_infinity_contact, num.film_omega_dt,
-                                         num.gap_step > 0.0)  # fmt: skip
+                                         num.rho_infinity, num.rho_infinity_contact, num.film_omega_dt)  # fmt: skip
         else:
             failure = stepper.step(dt)
         if failure:

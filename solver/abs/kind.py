@@ -14,9 +14,9 @@ STEADY_FREE = {
     "initial": None,
     "contact": ("damping_ratio",),
     "numerics": ("dt", "t_end", "settle_time", "output_interval", "rho_infinity", "rho_infinity_contact",
-                 "contact_omega_dt", "film_omega_dt", "gap_step", "film_refresh_gap", "film_update", "film_dt",
-                 "film_scheme", "film_start_flux", "contact_splits", "film_coupling", "film_predictor",
-                 "film_jacobian_every", "film_repass", "newton_tol", "newton_max_iter", "contact_threshold"),
+                 "contact_omega_dt", "film_omega_dt", "film_refresh_gap", "film_update", "film_dt", "film_scheme",
+                 "film_start_flux", "contact_splits", "film_coupling", "film_predictor", "film_jacobian_every",
+                 "film_repass", "newton_tol", "newton_max_iter", "contact_threshold"),
     "disk": ("correlation_length", "acf", "seed", "profile_file", "profile_spacing"),
 }  # fmt: skip
 

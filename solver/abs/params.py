@@ -413,15 +413,6 @@ class AbsNumerics(Section):
         "steps",
         lo=0.0,
     )
-    gap_step: float = quantity(
-        0.0,
-        "1",
-        "largest fraction of the face's smallest spacing (at least contact.equilibrium_spacing) by which the face's "
-        "lowest point may close or open in one step, at its present rate: a step of dt is split into 2^j equal "
-        "substeps (j <= contact_splits) where the pad moves fast near the disk, whose adhesion and asperity laws are "
-        "steep in the spacing; 0: the gap does not split steps (README, 'Impacts near the disk: the gap step')",
-        lo=0.0,
-    )
     film_dt: float = quantity(
         0.0,
         "s",
@@ -539,11 +530,6 @@ class AbsNumerics(Section):
             raise ParameterError(
                 f"numerics.film_omega_dt = {self.film_omega_dt!r} is not allowed with numerics.contact_omega_dt = 0: "
                 "the film splits steps with the contact's substeps (set contact_omega_dt > 0, or film_omega_dt = 0)"
-            )
-        if self.gap_step > 0.0 and self.contact_omega_dt == 0.0:
-            raise ParameterError(
-                f"numerics.gap_step = {self.gap_step!r} is not allowed with numerics.contact_omega_dt = 0: the gap "
-                "splits steps with the contact's substeps (set contact_omega_dt > 0, or gap_step = 0)"
             )
         ratio = self.output_interval / self.dt
         if self.output_interval != 0.0 and (ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio):
